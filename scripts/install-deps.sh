@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs every build and test dependency of tactres from Debian's archive.
+# Idempotent: safe to run twice, and as the first thing on a fresh Debian 12.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libopencv-dev        # fiducial detection, image ops
+  libmrcal-dev         # camera models and projection
+  libceres-dev         # pose and profile fits
+  libopenimageio-dev   # image I/O
+  openimageio-tools    # its CMake config references these binaries (Debian packaging)
+  libfmt-dev           # formatting
+  doctest-dev          # unit tests
+  libcli11-dev         # command line
+  nlohmann-json3-dev   # JSON
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,14 @@
+#pragma once
+// The USAF-1951 frequency series (MIL-STD-150A): element e of group g has
+// lp/mm = 2^(g + (e - 1) / 6). A bar is half a line pair wide, 5 widths long,
+// and bars of a triplet are one width apart.
+
+namespace tactres {
+
+constexpr int kUsafElementsPerGroup = 6;
+
+double usaf_lp_per_mm(int group, int element);
+double usaf_bar_width_mm(int group, int element);  // 1 / (2 lp/mm)
+double usaf_bar_length_mm(int group, int element);  // 5 bar widths
+
+}  // namespace tactres

@@ -1,0 +1,19 @@
+#include "tactres/targets/usaf_series.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace tactres {
+
+double usaf_lp_per_mm(int group, int element) {
+  if (element < 1 || element > kUsafElementsPerGroup)
+    throw std::invalid_argument("USAF element must be 1..6, got " + std::to_string(element));
+  return std::exp2(group + (element - 1) / 6.0);
+}
+
+double usaf_bar_width_mm(int group, int element) { return 0.5 / usaf_lp_per_mm(group, element); }
+
+double usaf_bar_length_mm(int group, int element) { return 5.0 * usaf_bar_width_mm(group, element); }
+
+}  // namespace tactres
