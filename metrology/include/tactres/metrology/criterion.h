@@ -1,0 +1,50 @@
+#pragma once
+// The resolution criterion, shared by the truth file (simulate) and the
+// measurement (measure), so that both sides define "limit" identically.
+//
+// An element is resolved when m(f) >= threshold and m(f) is significantly
+// above zero: m - z * m_sigma > 0. The discrete limit of an orientation is
+// the finest element such that it and every coarser element are resolved.
+// The interpolated limit is where m crosses the threshold between the last
+// resolved element and the next one, interpolating ln(m) linearly in f^2
+// (exact for a Gaussian MTF, ln m = -2 pi^2 sigma^2 f^2).
+
+#include <optional>
+#include <vector>
+
+namespace tactres {
+
+struct Criterion {
+  double threshold = 0.10;    // m(f) at the limit, in (0, 1)
+  double significance_z = 2.0;  // m must exceed z standard errors above 0
+
+  void validate() const;  // throws std::invalid_argument
+};
+
+// One element's estimate, in ascending frequency order within an orientation.
+struct MPoint {
+  int group = 0;
+  int element = 1;
+  double lp_per_mm = 0.0;
+  double m = 0.0;
+  double m_sigma = 0.0;   // 0 for exact truth
+  bool usable = true;     // false: graded status other than ok (never resolved)
+};
+
+struct Limit {
+  bool any_resolved = false;
+  int group = 0, element = 0;     // discrete limit (valid if any_resolved)
+  double lp_per_mm = 0.0;
+  // Interpolated crossing; absent when no crossing can be bracketed (nothing
+  // resolved, or everything resolved up to the finest element).
+  std::optional<double> interpolated_lp_per_mm;
+  std::optional<double> uncertainty_lp_per_mm;  // 1-sigma, propagated from m_sigma
+  bool beyond_finest = false;  // every element resolved: the limit is above the range
+};
+
+bool is_resolved(const MPoint& p, const Criterion& c);
+
+// `points` must be sorted by ascending lp_per_mm.
+Limit find_limit(const std::vector<MPoint>& points, const Criterion& c);
+
+}  // namespace tactres
