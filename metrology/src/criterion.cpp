@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 namespace tactres {
 
 void Criterion::validate() const {
@@ -69,6 +71,20 @@ Limit find_limit(const std::vector<MPoint>& points, const Criterion& c) {
         std::hypot(x->df_dm0 * last.m_sigma, x->df_dm1 * next.m_sigma);
   }
   return L;
+}
+
+nlohmann::json limit_to_json(const Limit& l) {
+  nlohmann::json j;
+  j["resolved_any"] = l.any_resolved;
+  j["group"] = l.any_resolved ? nlohmann::json(l.group) : nlohmann::json();
+  j["element"] = l.any_resolved ? nlohmann::json(l.element) : nlohmann::json();
+  j["lp_per_mm"] = l.any_resolved ? nlohmann::json(l.lp_per_mm) : nlohmann::json();
+  j["interpolated_lp_per_mm"] =
+      l.interpolated_lp_per_mm ? nlohmann::json(*l.interpolated_lp_per_mm) : nlohmann::json();
+  j["uncertainty_lp_per_mm"] =
+      l.uncertainty_lp_per_mm ? nlohmann::json(*l.uncertainty_lp_per_mm) : nlohmann::json();
+  j["beyond_finest"] = l.beyond_finest;
+  return j;
 }
 
 }  // namespace tactres

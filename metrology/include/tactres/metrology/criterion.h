@@ -12,6 +12,8 @@
 #include <optional>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 namespace tactres {
 
 struct Criterion {
@@ -46,5 +48,9 @@ bool is_resolved(const MPoint& p, const Criterion& c);
 
 // `points` must be sorted by ascending lp_per_mm.
 Limit find_limit(const std::vector<MPoint>& points, const Criterion& c);
+
+// {"resolved_any", "group", "element", "lp_per_mm", "interpolated_lp_per_mm",
+//  "uncertainty_lp_per_mm", "beyond_finest"}; absent values are null, never NaN.
+nlohmann::json limit_to_json(const Limit& limit);
 
 }  // namespace tactres
