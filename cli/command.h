@@ -19,6 +19,8 @@ struct Command {
 };
 
 Command generate_command();
+Command simulate_command();
+Command measure_command();
 
 // Every subcommand, in the order `tactres --help` lists them.
 std::vector<Command> command_table();

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <glog/logging.h>
 
 #include "command.h"
 #include "exit_codes.h"
@@ -11,13 +12,17 @@
 namespace tactres::cli {
 
 std::vector<Command> command_table() {
-  return {generate_command()};
+  return {generate_command(), simulate_command(), measure_command()};
 }
 
 }  // namespace tactres::cli
 
 int main(int argc, char** argv) {
   using namespace tactres::cli;
+  // Ceres logs through glog; tactres reports solver failures as data, so
+  // only fatal messages may reach the terminal.
+  FLAGS_minloglevel = 3;
+  google::InitGoogleLogging(argv[0]);
   CLI::App app{
       "tactres " TACTRES_VERSION
       ": how fine a detail does an optical tactile sensor resolve, in lp/mm?\n"

@@ -7,6 +7,7 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tactres/targets/atomic_file.h"
 
@@ -113,9 +114,10 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
 }
 
 void write_image(const std::filesystem::path& path, const cv::Mat& image, int bits) {
-  CV_Assert(image.channels() == 1);
+  CV_Assert(image.channels() == 1 || (image.channels() == 3 && image.depth() == CV_8U));
   OIIO::TypeDesc type;
   cv::Mat data = image;
+  if (image.channels() == 3) cv::cvtColor(image, data, cv::COLOR_BGR2RGB);  // OpenCV is BGR
   switch (image.depth()) {
     case CV_8U: type = OIIO::TypeDesc::UINT8; break;
     case CV_16U:
@@ -135,7 +137,7 @@ void write_image(const std::filesystem::path& path, const cv::Mat& image, int bi
   auto writer = OIIO::ImageOutput::create(out.temp_path().string());
   if (!writer)
     throw std::runtime_error(fmt::format("cannot write {}: no writer for this extension", path.string()));
-  OIIO::ImageSpec spec(image.cols, image.rows, 1, type);
+  OIIO::ImageSpec spec(image.cols, image.rows, image.channels(), type);
   spec.attribute("oiio:ColorSpace", "Linear");  // tactres images hold linear values
   if (!writer->open(out.temp_path().string(), spec))
     throw std::runtime_error(fmt::format("cannot write {}: {}", path.string(), writer->geterror()));

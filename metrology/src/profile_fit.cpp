@@ -48,6 +48,7 @@ class GridModel {
         }
       }
       if (sig == Signature::shading) S *= std::complex<double>(0, kTwoPi * nu);  // d/du
+      S *= std::exp(-0.5 * kTwoPi * kTwoPi * d.bin_spread_var_mm2 * nu * nu);    // bin averaging
       S /= d.bin_mm;  // continuous integral -> DFT coefficient
       s_hat_.at<cv::Vec2d>(0, k) = {S.real(), S.imag()};
     }

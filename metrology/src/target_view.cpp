@@ -2,7 +2,9 @@
 
 #include <cmath>
 
+extern "C" {  // mrcal ships C headers without C++ guards
 #include <mrcal/poseutils.h>
+}
 
 namespace tactres {
 

@@ -53,7 +53,7 @@ struct LoadedImage {
 // UnusableInput (undecodable or truncated data, exit 2), naming the path.
 LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& options = {});
 
-// Writes one channel atomically. CV_32F goes out as float (TIFF/EXR only),
+// Writes one channel, or 8-bit BGR colour, atomically. CV_32F goes out as float (TIFF/EXR only),
 // CV_8U / CV_16U as integers; `bits` (<= 16) are the significant bits of a
 // 16-bit image, scaled to the container's full range so readers see [0, 1].
 void write_image(const std::filesystem::path& path, const cv::Mat& image, int bits = 0);

@@ -55,6 +55,10 @@ struct ProfileData {
   std::vector<double> u_mean_mm;  // mean u of the samples in the bin
   std::vector<double> sigma;    // standard error of the bin mean
   std::vector<int> count;       // samples in the bin
+  // Mean variance of the sample positions u within a bin (mm^2): averaging
+  // samples spread over a bin blurs the profile by that much, which the
+  // model applies as a Gaussian of that variance (exact to second order).
+  double bin_spread_var_mm2 = 0.0;
   // Bins [fit_begin, fit_end) take part in the fit; the rest only extend the
   // grid so that blur from neighbours is modelled without wrap-around.
   int fit_begin = 0, fit_end = 0;

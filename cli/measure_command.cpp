@@ -1,0 +1,301 @@
+// `tactres measure`: lp/mm of one capture or a batch, with CI exit codes.
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "exit_codes.h"
+#include "tactres/metrology/image_io.h"
+#include "tactres/metrology/measure.h"
+#include "tactres/metrology/measurement_io.h"
+#include "tactres/targets/atomic_file.h"
+#include "tactres/targets/layout_json.h"
+
+namespace tactres::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Args {
+  std::vector<std::string> images;
+  std::string layout, camera, design, output, csv, overlay, out_dir, junit;
+  std::string preset = "balanced", transfer = "auto", non_finite = "mask", signature = "auto";
+  double threshold = 0.10;
+  std::optional<double> require_h, require_v, min_px_per_bar;
+  int channel = -1;
+  int jobs = 0;
+};
+
+// What one image produced, for the summary, the exit code and JUnit.
+struct Outcome {
+  std::string image, design, summary, problem;
+  int exit_code = kExitOk;
+  double seconds = 0;
+  std::optional<double> h_lp_per_mm, v_lp_per_mm;
+};
+
+std::string limit_text(const Limit& l) {
+  if (!l.any_resolved) return "none resolved";
+  std::string s = fmt::format("G{}E{} {:.2f} lp/mm", l.group, l.element, l.lp_per_mm);
+  if (l.interpolated_lp_per_mm)
+    s += fmt::format(" (interp. {:.2f} ± {:.2f})", *l.interpolated_lp_per_mm, l.uncertainty_lp_per_mm.value_or(0));
+  else if (l.beyond_finest)
+    s += " (all resolved)";
+  return s;
+}
+
+// The limit used against --require-*: interpolated when there is one.
+std::optional<double> gate_value(const Limit& l) {
+  if (!l.any_resolved) return 0.0;
+  return l.interpolated_lp_per_mm.value_or(l.lp_per_mm);
+}
+
+Outcome measure_one(const Args& a, const std::string& image_path, const TargetLayout& layout,
+                    const CameraModel* camera, const MeasureOptions& options, bool batch) {
+  Outcome o;
+  o.image = image_path;
+  o.design = a.design.empty() || batch ? fs::path(image_path).stem().string() : a.design;
+  if (!a.design.empty() && !batch) o.design = a.design;
+  const auto t0 = std::chrono::steady_clock::now();
+  fs::path json_path, csv_path, overlay_path;
+  if (batch || !a.out_dir.empty()) {
+    const fs::path dir = a.out_dir;
+    const std::string stem = fs::path(image_path).stem().string();
+    json_path = dir / (stem + ".json");
+    csv_path = dir / (stem + ".csv");
+    overlay_path = dir / (stem + ".overlay.png");
+  } else {
+    json_path = a.output;
+    csv_path = a.csv;
+    overlay_path = a.overlay;
+  }
+  LoadOptions lo;
+  lo.channel = a.channel;
+  lo.transfer = transfer_curve_from_string(a.transfer);
+  lo.non_finite = non_finite_policy_from_string(a.non_finite);
+
+  MeasurementContext ctx;
+  ctx.image = image_path;
+  ctx.design = o.design;
+  ctx.layout = a.layout;
+  ctx.tactres_version = TACTRES_VERSION;
+  ctx.options = &options;
+
+  Measurement m;
+  LoadedImage img;
+  try {
+    const auto td = std::chrono::steady_clock::now();
+    img = load_image(image_path, lo);
+    ctx.decode_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - td).count();
+    ctx.loaded = &img;
+    m = measure_capture(img, layout, camera, options);
+  } catch (const UnusableInput& e) {
+    m.usable = false;
+    m.problem = e.what();
+  } catch (const std::invalid_argument& e) {  // e.g. camera model for another imager
+    o.exit_code = kExitUsageOrIo;
+    o.problem = e.what();
+    o.summary = fmt::format("{}: error: {}", o.design, e.what());
+    return o;
+  } catch (const std::runtime_error& e) {  // missing or unreadable file
+    o.exit_code = kExitUsageOrIo;
+    o.problem = e.what();
+    o.summary = fmt::format("{}: error: {}", o.design, e.what());
+    return o;
+  }
+
+  // Outputs, each atomic. An unusable capture still gets its JSON, which
+  // says why, so that reports show it as failed instead of dropping it.
+  if (!json_path.empty()) write_file_atomically(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
+  if (m.usable) {
+    if (!csv_path.empty())
+      write_file_atomically(csv_path, measurement_csv_header() + measurement_csv_rows(m, ctx));
+    if (!overlay_path.empty()) write_image(overlay_path, overlay_image(img.luminance, m));
+  }
+  o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  if (!m.usable) {
+    o.exit_code = kExitUnusableInput;
+    o.problem = m.problem;
+    o.summary = fmt::format("{}: unusable: {}", o.design, m.problem);
+    return o;
+  }
+  o.h_lp_per_mm = gate_value(m.horizontal);
+  o.v_lp_per_mm = gate_value(m.vertical);
+  int ok = 0, other = 0;
+  for (const ElementResult& e : m.elements) (e.status == ElementStatus::ok ? ok : other)++;
+  std::string spec;
+  std::vector<std::string> below;
+  if (a.require_h && *o.h_lp_per_mm < *a.require_h)
+    below.push_back(fmt::format("H {:.2f} < {:.2f}", *o.h_lp_per_mm, *a.require_h));
+  if (a.require_v && *o.v_lp_per_mm < *a.require_v)
+    below.push_back(fmt::format("V {:.2f} < {:.2f}", *o.v_lp_per_mm, *a.require_v));
+  if (!below.empty()) {
+    o.exit_code = kExitBelowSpec;
+    o.problem = fmt::format("below spec: {}", fmt::join(below, ", "));
+    spec = " [BELOW SPEC: " + fmt::format("{}", fmt::join(below, ", ")) + "]";
+  } else if (a.require_h || a.require_v) {
+    spec = " [within spec]";
+  }
+  o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded{}{}", o.design, limit_text(m.horizontal),
+                          limit_text(m.vertical), ok, other, m.distortion_corrected ? "" : "; distortion NOT corrected",
+                          spec);
+  return o;
+}
+
+std::string xml_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string junit_xml(const std::vector<Outcome>& outcomes) {
+  int failures = 0, errors = 0;
+  std::string cases;
+  for (const Outcome& o : outcomes) {
+    cases += fmt::format("    <testcase classname=\"tactres.measure\" name=\"{}\" time=\"{:.3f}\">\n",
+                         xml_escape(o.design), o.seconds);
+    if (o.exit_code == kExitBelowSpec) {
+      ++failures;
+      cases += fmt::format("      <failure message=\"{}\"/>\n", xml_escape(o.problem));
+    } else if (o.exit_code != kExitOk) {
+      ++errors;
+      cases += fmt::format("      <error message=\"{}\"/>\n", xml_escape(o.problem));
+    }
+    cases += fmt::format("      <system-out>{}</system-out>\n    </testcase>\n", xml_escape(o.summary));
+  }
+  return fmt::format(
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites>\n  <testsuite name=\"tactres measure\" "
+      "tests=\"{}\" failures=\"{}\" errors=\"{}\">\n{}  </testsuite>\n</testsuites>\n",
+      outcomes.size(), failures, errors, cases);
+}
+
+}  // namespace
+
+Command measure_command() {
+  return {"measure", "Measure captures: lp/mm per orientation with uncertainty, JSON/CSV/overlay, CI exit codes",
+          [](CLI::App& app) -> std::function<int()> {
+            auto a = std::make_shared<Args>();
+            app.add_option("images", a->images, "Capture(s): any format OpenImageIO reads (PNG, TIFF, EXR, JPEG...)")
+                ->required();
+            app.add_option("--layout", a->layout, "Layout JSON of the captured target (from `tactres generate`)")
+                ->required();
+            app.add_option("--camera", a->camera,
+                           "mrcal .cameramodel of the camera (default: a pinhole fitted from the fiducials, "
+                           "distortion not corrected)");
+            app.add_option("--design", a->design, "Design label for a single image (default: the file's stem)");
+            app.add_option("-o,--output", a->output, "Measurement JSON (single image)");
+            app.add_option("--csv", a->csv, "Per-element CSV (single image)");
+            app.add_option("--overlay", a->overlay, "Overlay PNG of the sampled strips coloured by status (single image)");
+            app.add_option("--out-dir", a->out_dir,
+                           "Batch: write <stem>.json, <stem>.csv and <stem>.overlay.png here for every image");
+            app.add_option("--threshold", a->threshold, "Criterion: m(f) at the limit, in (0, 1)")
+                ->capture_default_str()
+                ->check(CLI::Range(0.001, 0.999));
+            app.add_option("--preset", a->preset, "Accuracy/time trade: fast, balanced or precise")
+                ->capture_default_str()
+                ->check(CLI::IsMember({"fast", "balanced", "precise"}));
+            app.add_option("--require-h", a->require_h,
+                           "Exit 1 if the horizontal-bar limit (interpolated, lp/mm) is below this");
+            app.add_option("--require-v", a->require_v,
+                           "Exit 1 if the vertical-bar limit (interpolated, lp/mm) is below this");
+            app.add_option("--junit", a->junit, "Write JUnit XML: one test case per image");
+            app.add_option("--channel", a->channel, "Channel to measure (default -1: Rec. 709 luminance)")
+                ->capture_default_str();
+            app.add_option("--transfer", a->transfer, "Transfer curve of the file: auto, linear or srgb")
+                ->capture_default_str()
+                ->check(CLI::IsMember({"auto", "linear", "srgb"}));
+            app.add_option("--non-finite", a->non_finite, "NaN/Inf pixels: mask (skip them) or reject the image")
+                ->capture_default_str()
+                ->check(CLI::IsMember({"mask", "reject"}));
+            app.add_option("--signature", a->signature,
+                           "Profile model: albedo (printed bars), shading (relief through a gel) or auto")
+                ->capture_default_str()
+                ->check(CLI::IsMember({"auto", "albedo", "shading"}));
+            app.add_option("--min-px-per-bar", a->min_px_per_bar,
+                           "Below this many pixels per bar an element is below_sampling_limit (default 1.5)")
+                ->check(CLI::Range(0.5, 20.0));
+            app.add_option("-j,--jobs", a->jobs, "Batch: images measured in parallel (default: all cores)")
+                ->check(CLI::Range(0, 256));
+            return [a]() {
+              const bool batch = a->images.size() > 1 || !a->out_dir.empty();
+              if (!batch && a->output.empty() && a->csv.empty() && a->overlay.empty())
+                throw std::invalid_argument("say where results go: -o result.json (and/or --csv, --overlay), or --out-dir DIR");
+              if (batch && (!a->output.empty() || !a->csv.empty() || !a->overlay.empty()))
+                throw std::invalid_argument("several images need --out-dir DIR instead of -o/--csv/--overlay");
+              if (batch && a->out_dir.empty()) throw std::invalid_argument("several images need --out-dir DIR");
+              MeasureOptions options = MeasureOptions::for_preset(preset_from_string(a->preset));
+              options.criterion.threshold = a->threshold;
+              options.signature = a->signature;
+              if (a->min_px_per_bar) options.min_px_per_bar = *a->min_px_per_bar;
+              options.validate();
+              const TargetLayout layout = read_layout_file(a->layout);
+              std::optional<CameraModel> camera;
+              if (!a->camera.empty()) camera = CameraModel::load(a->camera);
+              if (!a->out_dir.empty()) {
+                std::error_code ec;
+                fs::create_directories(a->out_dir, ec);
+                if (ec) throw std::runtime_error("cannot create " + a->out_dir + ": " + ec.message());
+              }
+
+              std::vector<Outcome> outcomes(a->images.size());
+              std::atomic<size_t> next{0}, done{0};
+              std::mutex print;
+              const bool tty = isatty(fileno(stderr)) && batch;
+              const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+              const size_t jobs = std::min<size_t>(a->images.size(), a->jobs > 0 ? size_t(a->jobs) : hw);
+              auto worker = [&]() {
+                for (size_t i; (i = next++) < a->images.size();) {
+                  try {
+                    outcomes[i] = measure_one(*a, a->images[i], layout, camera ? &*camera : nullptr, options, batch);
+                  } catch (const std::exception& e) {  // an output could not be written
+                    outcomes[i].image = a->images[i];
+                    outcomes[i].design = fs::path(a->images[i]).stem().string();
+                    outcomes[i].exit_code = kExitUsageOrIo;
+                    outcomes[i].problem = e.what();
+                    outcomes[i].summary = fmt::format("{}: error: {}", outcomes[i].design, e.what());
+                  }
+                  const size_t n = ++done;
+                  if (tty) {
+                    std::lock_guard<std::mutex> lock(print);
+                    const int width = 30, filled = int(width * n / a->images.size());
+                    fmt::print(stderr, "\r[{}{}] {}/{} {}", std::string(filled, '#'), std::string(width - filled, ' '),
+                               n, a->images.size(), n == a->images.size() ? "\n" : "");
+                  }
+                }
+              };
+              std::vector<std::thread> pool;
+              for (size_t k = 1; k < jobs; ++k) pool.emplace_back(worker);
+              worker();
+              for (auto& t : pool) t.join();
+
+              int worst = kExitOk;
+              for (const Outcome& o : outcomes) {
+                (o.exit_code == kExitOk || o.exit_code == kExitBelowSpec ? stdout : stderr) == stdout
+                    ? fmt::print("{}\n", o.summary)
+                    : fmt::print(stderr, "{}\n", o.summary);
+                worst = std::max(worst, o.exit_code);
+              }
+              if (!a->junit.empty()) write_file_atomically(a->junit, junit_xml(outcomes));
+              return worst;
+            };
+          }};
+}
+
+}  // namespace tactres::cli

@@ -1,0 +1,78 @@
+// `tactres simulate`: render a scene into a capture plus its truth file.
+#include <chrono>
+#include <filesystem>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "exit_codes.h"
+#include "tactres/metrology/camera_model.h"
+#include "tactres/metrology/image_io.h"
+#include "tactres/metrology/renderer.h"
+#include "tactres/metrology/scene.h"
+#include "tactres/metrology/truth.h"
+#include "tactres/targets/atomic_file.h"
+#include "tactres/targets/layout_json.h"
+
+namespace tactres::cli {
+
+Command simulate_command() {
+  return {"simulate", "Render a scene: the capture a sensor and camera would record, plus its truth file",
+          [](CLI::App& app) -> std::function<int()> {
+            struct Args {
+              std::string scene, output, truth, layout;
+              std::optional<std::uint64_t> seed;
+              int supersampling = 0;
+            };
+            auto a = std::make_shared<Args>();
+            app.add_option("scene", a->scene, "Scene file (JSON, schema tactres.scene/1; see docs/FORMATS.md)")
+                ->required();
+            app.add_option("-o,--output", a->output,
+                           "Capture to write: .png (needs a sensor effect), .tif/.tiff or .exr (float)")
+                ->required();
+            app.add_option("--truth", a->truth, "Truth file to write (default: <capture>.truth.json)");
+            app.add_option("--layout", a->layout, "Layout JSON (overrides the scene's \"layout\")");
+            app.add_option("--seed", a->seed, "Sensor noise seed (overrides the scene's; same seed, same bytes)");
+            app.add_option("--supersampling", a->supersampling,
+                           "Sub-pixels per pixel side, 1..16 (overrides the scene's; default 2)")
+                ->check(CLI::Range(1, 16));
+            return [a]() {
+              Scene scene = read_scene_file(a->scene);
+              if (a->supersampling > 0) scene.supersampling = a->supersampling;
+              if (!a->layout.empty()) scene.layout_path = a->layout;
+              if (!scene.layout_path)
+                throw std::invalid_argument("no layout: give --layout layout.json or a \"layout\" in the scene");
+              const TargetLayout layout = read_layout_file(*scene.layout_path);
+              const CameraModel camera = CameraModel::load(scene.camera_path);
+              const std::filesystem::path out(a->output);
+              const std::filesystem::path truth_path =
+                  a->truth.empty() ? std::filesystem::path(out.string() + ".truth.json") : std::filesystem::path(a->truth);
+              if (!scene.find<SensorOptions>() && out.extension() == ".png")
+                throw std::invalid_argument(
+                    "an ideal (float) render needs .tif or .exr; add a sensor effect to write .png");
+
+              const auto t0 = std::chrono::steady_clock::now();
+              const RenderResult r = render_scene(scene, layout, camera, a->seed);
+              const Truth truth = compute_truth(scene, layout, camera);
+              const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+              write_image(out, r.image, r.bits);
+              nlohmann::json tj = truth_to_json(truth, scene, out.filename().string());
+              write_file_atomically(truth_path, tj.dump(2) + "\n");
+
+              auto limit_text = [](const Limit& l) {
+                if (!l.any_resolved) return std::string("none resolved");
+                return fmt::format("G{}E{} {:.2f} lp/mm (interpolated {})", l.group, l.element, l.lp_per_mm,
+                                   l.interpolated_lp_per_mm ? fmt::format("{:.2f}", *l.interpolated_lp_per_mm)
+                                                            : std::string("n/a"));
+              };
+              fmt::print("{}: {} {}x{} in {:.2f} s; true limit H {}, V {}; truth {}\n", scene.design,
+                         out.string(), r.image.cols, r.image.rows, seconds, limit_text(truth.horizontal),
+                         limit_text(truth.vertical), truth_path.string());
+              return int(kExitOk);
+            };
+          }};
+}
+
+}  // namespace tactres::cli

@@ -1,0 +1,332 @@
+#include "tactres/metrology/measure.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <opencv2/core.hpp>
+
+#include "tactres/metrology/target_view.h"
+#include "tactres/targets/coverage.h"
+
+namespace tactres {
+
+const char* to_string(ElementStatus s) {
+  switch (s) {
+    case ElementStatus::ok: return "ok";
+    case ElementStatus::low_signal: return "low_signal";
+    case ElementStatus::clipped: return "clipped";
+    case ElementStatus::aliased: return "aliased";
+    case ElementStatus::below_sampling_limit: return "below_sampling_limit";
+    case ElementStatus::out_of_view: return "out_of_view";
+    case ElementStatus::fit_failed: return "fit_failed";
+  }
+  return "fit_failed";
+}
+
+const char* to_string(Preset p) {
+  return p == Preset::fast ? "fast" : p == Preset::balanced ? "balanced" : "precise";
+}
+
+Preset preset_from_string(const std::string& s) {
+  if (s == "fast") return Preset::fast;
+  if (s == "balanced") return Preset::balanced;
+  if (s == "precise") return Preset::precise;
+  throw std::invalid_argument("unknown preset '" + s + "': use fast, balanced or precise");
+}
+
+MeasureOptions MeasureOptions::for_preset(Preset p) {
+  MeasureOptions o;
+  o.preset = p;
+  switch (p) {
+    case Preset::fast:  // coarse bins, Gaussian PSF, light pose model
+      o.sampling.bin_px = 0.5;
+      o.fit_psf_shape = false;
+      o.pose_boundary_points = 16;
+      o.max_bins_per_bar = 6;
+      break;
+    case Preset::balanced:
+      o.sampling.bin_px = 0.25;
+      o.fit_psf_shape = true;
+      o.pose_boundary_points = 32;
+      o.max_bins_per_bar = 8;
+      break;
+    case Preset::precise:
+      o.sampling.bin_px = 0.125;
+      o.fit_psf_shape = true;
+      o.pose_boundary_points = 96;
+      o.max_bins_per_bar = 16;
+      break;
+  }
+  return o;
+}
+
+void MeasureOptions::validate() const {
+  sampling.validate();
+  criterion.validate();
+  if (!(min_px_per_bar >= 0.5 && min_px_per_bar <= 20))
+    throw std::invalid_argument("--min-px-per-bar must be in [0.5, 20]");
+  if (!(max_m_sigma > 0 && max_m_sigma <= 1)) throw std::invalid_argument("max m sigma must be in (0, 1]");
+  if (!(aliasing_chi2 > 1)) throw std::invalid_argument("aliasing chi^2 threshold must be > 1");
+  if (!(pose_boundary_points >= 8 && pose_boundary_points <= 1024))
+    throw std::invalid_argument("pose boundary points must be in [8, 1024]");
+  if (!(max_bins_per_bar >= 2 && max_bins_per_bar <= 64))
+    throw std::invalid_argument("max bins per bar must be in [2, 64]");
+  if (signature != "auto" && signature != "albedo" && signature != "shading")
+    throw std::invalid_argument("--signature must be auto, albedo or shading");
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// A copy with masked (NaN) pixels filled by the median, for OpenCV's blob
+// search, which has no notion of "no data".
+cv::Mat filled_for_detection(const cv::Mat& lum) {
+  std::vector<float> finite;
+  finite.reserve(lum.total() / 16 + 1);
+  for (int y = 0; y < lum.rows; y += 4)
+    for (int x = 0; x < lum.cols; x += 4)
+      if (std::isfinite(lum.at<float>(y, x))) finite.push_back(lum.at<float>(y, x));
+  if (finite.empty()) return lum.clone();
+  std::nth_element(finite.begin(), finite.begin() + finite.size() / 2, finite.end());
+  const float median = finite[finite.size() / 2];
+  cv::Mat out = lum.clone();
+  out.forEach<float>([&](float& v, const int*) {
+    if (!std::isfinite(v)) v = median;
+  });
+  return out;
+}
+
+}  // namespace
+
+Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout, const CameraModel* camera,
+                            const MeasureOptions& options) {
+  options.validate();
+  Measurement M;
+  M.image_width = image.width;
+  M.image_height = image.height;
+  const cv::Mat& lum = image.luminance;
+  if (camera) camera->check_image_size(image.width, image.height);
+
+  // Saturation: a capture that is mostly clipped cannot be measured.
+  if (image.saturation_level > 0) {
+    const double clip = image.saturation_level * 0.9999;
+    long long clipped = 0, finite = 0;
+    for (int y = 0; y < lum.rows; ++y) {
+      const float* r = lum.ptr<float>(y);
+      for (int x = 0; x < lum.cols; ++x)
+        if (std::isfinite(r[x])) {
+          ++finite;
+          clipped += r[x] >= clip ? 1 : 0;
+        }
+    }
+    if (finite > 0 && clipped > finite / 2) {
+      M.problem = fmt::format(
+          "the capture is saturated: {:.0f}% of the pixels are at the clip level; reduce exposure or "
+          "illumination and capture again",
+          100.0 * clipped / finite);
+      return M;
+    }
+  }
+
+  auto t = Clock::now();
+  M.fiducials = find_fiducials(filled_for_detection(lum), layout);
+  M.stage_seconds.push_back({"locate_fiducials", since(t)});
+  if (!M.fiducials.found) {
+    M.problem = M.fiducials.problem.empty() ? "no target found" : M.fiducials.problem;
+    return M;
+  }
+
+  t = Clock::now();
+  std::vector<DiscObservation> discs = disc_observations(layout.fiducials);
+  for (size_t i = 0; i < discs.size(); ++i)
+    for (const FiducialDetection& d : M.fiducials.discs)
+      if (d.id == layout.fiducials[i].id) discs[i].centroid_px = d.centroid_px;
+  PoseOptions po;
+  po.boundary_points = options.pose_boundary_points;
+  std::optional<CameraModel> fitted;
+  if (camera) {
+    M.pose = fit_pose(*camera, discs, po);
+    M.camera_source = camera->source();
+    M.distortion_corrected = true;
+  } else {
+    PinholePoseOptions pp;
+    pp.pose = po;
+    PinholePoseResult r = fit_pinhole_and_pose(image.width, image.height, discs, pp);
+    M.pose = r.pose;
+    fitted = r.camera;
+    M.camera_source = "pinhole fitted from the fiducials (no camera model: distortion not corrected)";
+    M.distortion_corrected = false;
+  }
+  M.stage_seconds.push_back({"pose", since(t)});
+  if (!M.pose.usable || (!camera && !fitted)) {
+    M.problem = "the fiducials do not fit the layout (" + M.pose.message +
+                "): is this the layout of the captured target, and the right camera model?";
+    return M;
+  }
+  if (M.pose.rms_px > 2.0) {
+    M.problem = fmt::format(
+        "the fiducials fit the layout poorly (reprojection RMS {:.2f} px): wrong layout, wrong camera "
+        "model, or a strongly deformed target",
+        M.pose.rms_px);
+    return M;
+  }
+  const CameraModel& cam = camera ? *camera : *fitted;
+  const TargetView view(cam, M.pose.rt_camera_from_target_mm);
+  const ArtworkIndex index(layout.artwork, 0.0);
+  const double clip_level = image.saturation_level;
+
+  if (const auto pj = view.project_with_jacobian({0.5 * layout.width_mm, 0.5 * layout.height_mm})) {
+    const auto& J = pj->second;
+    M.nyquist_h_lp_per_mm = 0.5 * std::hypot(J[1], J[3]);
+    M.nyquist_v_lp_per_mm = 0.5 * std::hypot(J[0], J[2]);
+  }
+
+  // Reference patch: the contrast scale per direction, and the signature
+  // (printed bars vs relief through a gel) when it is not given.
+  t = Clock::now();
+  ReferenceResult& ref = M.reference;
+  {
+    ProfileSamplingOptions ps = options.sampling;
+    SampledProfile px = sample_strip(lum, view, layout, index, patch_strip(layout, true), ps, clip_level);
+    SampledProfile py = sample_strip(lum, view, layout, index, patch_strip(layout, false), ps, clip_level);
+    if (!px.in_view || !py.in_view) {
+      ref.problem = "the reference patch is not fully in view: frame the whole target";
+    } else if (px.pixels_clipped > px.pixels_used / 20 || py.pixels_clipped > py.pixels_used / 20) {
+      ref.problem = "the reference patch is clipped (saturated or black): adjust exposure";
+    } else {
+      ProfileFitOptions fo;
+      fo.fit_contrast = true;
+      fo.fit_shape = false;
+      auto fit_both = [&](Signature sig) {
+        fo.signature = sig;
+        return std::make_pair(fit_profile(px.data, fo), fit_profile(py.data, fo));
+      };
+      std::pair<ProfileFit, ProfileFit> fits;
+      if (options.signature == "albedo" || options.signature == "shading") {
+        ref.signature = options.signature == "albedo" ? Signature::albedo : Signature::shading;
+        fits = fit_both(ref.signature);
+      } else {
+        auto a = fit_both(Signature::albedo);
+        auto s = fit_both(Signature::shading);
+        auto cost = [](const std::pair<ProfileFit, ProfileFit>& f) {
+          if (!f.first.usable || !f.second.usable) return 1e300;
+          return f.first.chi2_reduced + f.second.chi2_reduced;
+        };
+        ref.signature = cost(s) < cost(a) ? Signature::shading : Signature::albedo;
+        fits = ref.signature == Signature::shading ? s : a;
+      }
+      if (!fits.first.usable || !fits.second.usable) {
+        ref.problem = "the reference patch could not be fitted: " +
+                      (fits.first.usable ? fits.second.failure : fits.first.failure);
+      } else {
+        ref.contrast_x = fits.first.contrast;
+        ref.contrast_x_sigma = fits.first.contrast_sigma;
+        ref.contrast_y = fits.second.contrast;
+        ref.contrast_y_sigma = fits.second.contrast_sigma;
+        // The patch must stand out of the noise, or nothing can be normalised.
+        auto significant = [](double c, double s) { return std::abs(c) > 5 * s && std::abs(c) > 1e-4; };
+        ref.usable = significant(ref.contrast_x, ref.contrast_x_sigma) ||
+                     significant(ref.contrast_y, ref.contrast_y_sigma);
+        if (!ref.usable) ref.problem = "the reference patch shows no contrast: is the target in focus and lit?";
+      }
+    }
+  }
+  M.stage_seconds.push_back({"reference_patch", since(t)});
+  if (!ref.usable) {
+    M.problem = ref.problem;
+    return M;
+  }
+
+  // Elements.
+  t = Clock::now();
+  double sample_s = 0, fit_s = 0;
+  for (const ElementLayout& e : layout.elements) {
+    ElementResult r;
+    r.group = e.group;
+    r.element = e.element;
+    r.orientation = e.orientation;
+    r.lp_per_mm = e.lp_per_mm;
+    const bool across_x = e.orientation == BarOrientation::vertical_bars;
+    auto ts = Clock::now();
+    ProfileSamplingOptions so = options.sampling;
+    const Strip strip = element_strip(e, so);
+    if (const auto pj = view.project_with_jacobian(strip.center_mm)) {
+      const auto& J = pj->second;
+      const double px_per_mm = across_x ? std::hypot(J[0], J[2]) : std::hypot(J[1], J[3]);
+      r.px_per_bar = e.bar_width_mm * px_per_mm;
+      // Coarse elements need no quarter-pixel bins: cap the bins per bar.
+      so.bin_px = std::max(so.bin_px, r.px_per_bar / options.max_bins_per_bar);
+    }
+    const SampledProfile sp = sample_strip(lum, view, layout, index, strip, so, clip_level);
+    sample_s += since(ts);
+    r.outline_px = sp.outline_px;
+    r.outline_valid = sp.in_view;
+    if (!sp.in_view) {
+      r.status = ElementStatus::out_of_view;
+    } else if (r.px_per_bar < options.min_px_per_bar) {
+      r.status = ElementStatus::below_sampling_limit;
+    } else if (sp.pixels_clipped > sp.pixels_used / 50) {
+      r.status = ElementStatus::clipped;
+    } else {
+      ts = Clock::now();
+      ProfileFitOptions fo;
+      fo.signature = ref.signature;
+      fo.fit_contrast = false;
+      fo.contrast = across_x ? ref.contrast_x : ref.contrast_y;
+      const double contrast_sigma = across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma;
+      fo.fit_shape = options.fit_psf_shape;
+      const ProfileFit fit = fit_profile(sp.data, fo);
+      fit_s += since(ts);
+      if (!fit.usable) {
+        r.status = ElementStatus::fit_failed;
+      } else {
+        const double m = fit.transfer(e.lp_per_mm);
+        // The patch's contrast error scales the whole signature: m moves
+        // with it to first order (dm/dc ~ -m/c).
+        const double m_sigma = std::hypot(fit.transfer_sigma(e.lp_per_mm), m * contrast_sigma / std::abs(fo.contrast));
+        r.beta = fit.beta;
+        r.chi2_reduced = fit.chi2_reduced;
+        if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
+          r.status = ElementStatus::fit_failed;
+        } else if (fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0) {
+          // The bars are not where the layout puts them at this sampling:
+          // the image shows another period or bar count.
+          r.status = ElementStatus::aliased;
+        } else if (m_sigma > options.max_m_sigma) {
+          r.status = ElementStatus::low_signal;
+        } else {
+          r.status = ElementStatus::ok;
+          r.m = m;
+          r.m_sigma = std::max(m_sigma, 1e-6);
+        }
+      }
+    }
+    M.elements.push_back(r);
+  }
+  M.stage_seconds.push_back({"profiles", sample_s});
+  M.stage_seconds.push_back({"fits", fit_s});
+
+  // Decide.
+  t = Clock::now();
+  for (BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+    std::vector<MPoint> pts;
+    for (const ElementResult& r : M.elements)
+      if (r.orientation == o)
+        pts.push_back({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok});
+    std::sort(pts.begin(), pts.end(), [](const MPoint& a, const MPoint& b) { return a.lp_per_mm < b.lp_per_mm; });
+    (o == BarOrientation::horizontal_bars ? M.horizontal : M.vertical) = find_limit(pts, options.criterion);
+  }
+  for (ElementResult& r : M.elements)
+    r.resolved = r.status == ElementStatus::ok &&
+                 is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, options.criterion);
+  M.stage_seconds.push_back({"decide", since(t)});
+  M.usable = true;
+  return M;
+}
+
+}  // namespace tactres
