@@ -4,6 +4,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include <ceres/rotation.h>
 #include <fmt/format.h>
 extern "C" {  // mrcal ships C headers without C++ guards
 #include <mrcal/poseutils.h>
@@ -150,7 +151,10 @@ std::array<double, 6> rt_from_view(const ViewPose& v, double W, double H) {
   mul(roll, view, tmp);
   mul(tilt, tmp, R);
   std::array<double, 6> rt{};
-  mrcal_r_from_R(rt.data(), nullptr, R);
+  // Not mrcal_r_from_R: it returns r = 0 for a rotation by exactly pi, which
+  // is what a fronto-parallel through-gel view is. Ceres' conversion is
+  // stable there.
+  ceres::RotationMatrixToAngleAxis(ceres::RowMajorAdapter3x3(static_cast<const double*>(R)), rt.data());
   const double c[3] = {0.5 * W, 0.5 * H, 0};
   const double target_center_camera[3] = {v.offset_mm[0], v.offset_mm[1], v.distance_mm};
   for (int i = 0; i < 3; ++i)
