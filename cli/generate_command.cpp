@@ -82,10 +82,12 @@ int run_generate(GenerateArgs a) {
 
   const fs::path dir(a.out_dir);
   std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    throw std::runtime_error(fmt::format("cannot write into {}: it is a file, not a folder", dir.string()));
   fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir))
-    throw std::runtime_error(fmt::format("cannot create the output folder {}: {}", dir.string(),
-                                         ec ? ec.message() : "a file of that name exists"));
+  if (ec || !fs::is_directory(dir, ec))
+    throw std::runtime_error(
+        fmt::format("cannot create the output folder {}: {}", dir.string(), ec.message()));
 
   std::vector<Staged> staged;
   auto stage = [&](const char* name, auto&& write) {
