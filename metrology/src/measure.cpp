@@ -228,11 +228,29 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
         ref.contrast_x_sigma = fits.first.contrast_sigma;
         ref.contrast_y = fits.second.contrast;
         ref.contrast_y_sigma = fits.second.contrast_sigma;
+        ref.chi2_x = fits.first.chi2_reduced;
+        ref.chi2_y = fits.second.chi2_reduced;
         // The patch must stand out of the noise, or nothing can be normalised.
         auto significant = [](double c, double s) { return std::abs(c) > 5 * s && std::abs(c) > 1e-4; };
         ref.usable = significant(ref.contrast_x, ref.contrast_x_sigma) ||
                      significant(ref.contrast_y, ref.contrast_y_sigma);
-        if (!ref.usable) ref.problem = "the reference patch shows no contrast: is the target in focus and lit?";
+        if (!ref.usable)
+          ref.problem =
+              "the reference patch shows no contrast where the layout puts it: is this the layout.json of the "
+              "captured target, and is the target in focus and lit?";
+        // A patch that the model cannot describe is not where the layout
+        // puts it: the fiducials matched, but the rest of the target differs.
+        // The misfit must also be large against the patch's own contrast,
+        // or a noise-free capture's tiny model error would trip it.
+        const double misfit = std::max(fits.first.residual_rms / std::abs(fits.first.contrast * fits.first.b0),
+                                       fits.second.residual_rms / std::abs(fits.second.contrast * fits.second.b0));
+        if (ref.usable && std::max(ref.chi2_x, ref.chi2_y) > options.max_patch_chi2 && misfit > 0.05) {
+          ref.usable = false;
+          ref.problem = fmt::format(
+              "the capture does not match the layout: the reference patch is not where the layout puts it "
+              "(fit chi^2 {:.0f}); measure with the layout.json of the captured target",
+              std::max(ref.chi2_x, ref.chi2_y));
+        }
       }
     }
   }

@@ -54,7 +54,9 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
                       {"contrast_x", finite(m.reference.contrast_x)},
                       {"contrast_x_sigma", finite(m.reference.contrast_x_sigma)},
                       {"contrast_y", finite(m.reference.contrast_y)},
-                      {"contrast_y_sigma", finite(m.reference.contrast_y_sigma)}};
+                      {"contrast_y_sigma", finite(m.reference.contrast_y_sigma)},
+                      {"chi2_x", finite(m.reference.chi2_x)},
+                      {"chi2_y", finite(m.reference.chi2_y)}};
   else
     j["reference"] = nullptr;
   j["nyquist_lp_per_mm"] = {{"horizontal_bars", finite(m.nyquist_h_lp_per_mm)},

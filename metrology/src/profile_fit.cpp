@@ -103,6 +103,16 @@ class ProfileCost final : public ceres::CostFunction {
   }
   int residual_count() const { return static_cast<int>(bins_.size()); }
 
+  // RMS of (model - data) in image units, unweighted.
+  double residual_rms(const double* x) const {
+    std::vector<double> r(bins_.size());
+    const double* params[] = {x};
+    Evaluate(params, r.data(), nullptr);
+    double ss = 0;
+    for (size_t k = 0; k < r.size(); ++k) ss += std::pow(r[k] * d_.sigma[bins_[k]], 2);
+    return r.empty() ? 0.0 : std::sqrt(ss / r.size());
+  }
+
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
     const double* x = params[0];
     const bool want_j = jacobians && jacobians[0];
@@ -249,6 +259,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
 
   const int dof = std::max(1, out.residual_count - free_params);
   out.chi2_reduced = 2 * summary.final_cost / dof;
+  out.residual_rms = cost->residual_rms(x);
 
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;

@@ -143,6 +143,9 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
   d.fit_begin = std::max(0, static_cast<int>(std::floor((-U - d.u0_mm) / d.bin_mm)));
   d.fit_end = std::min(d.bin_count, static_cast<int>(std::ceil((U - d.u0_mm) / d.bin_mm)));
   std::vector<double> sum(d.bin_count, 0), sum2(d.bin_count, 0), sum_u(d.bin_count, 0), sum_uu(d.bin_count, 0);
+  // Along-bar moments: the light varies along the bars too (vignetting,
+  // illumination), which is not noise; the noise estimate removes it.
+  std::vector<double> sum_v(d.bin_count, 0), sum_vv(d.bin_count, 0), sum_xv(d.bin_count, 0);
   d.count.assign(d.bin_count, 0);
 
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
@@ -171,6 +174,9 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
       sum2[b] += double(value) * value;
       sum_u[b] += p.x;
       sum_uu[b] += p.x * p.x;
+      sum_v[b] += p.y;
+      sum_vv[b] += p.y * p.y;
+      sum_xv[b] += value * p.y;
       ++d.count[b];
       ++out.pixels_used;
     }
@@ -202,21 +208,45 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
     if (d.count[b] > 0) filled.push_back(b);
   std::vector<std::pair<double, int>> flatness;  // |change across neighbours|, bin
   for (size_t k = 1; k + 1 < filled.size(); ++k)
-    if (d.count[filled[k]] >= 2)
+    if (d.count[filled[k]] >= 3)
       flatness.push_back({std::abs(d.value[filled[k + 1]] - d.value[filled[k - 1]]), filled[k]});
   std::sort(flatness.begin(), flatness.end());
-  double pooled = 0;
-  long pooled_n = 0;
+
+  // Noise model var(level) = a + b * level (read noise plus shot noise, the
+  // photon-transfer relation of EMVA 1288), fitted to the within-bin
+  // variances of the flattest half of the bins. Dark bars are much quieter
+  // than bright ground under shot noise; one pooled variance would overstate
+  // the noise of the bars and understate it on the ground.
+  double s_w = 0, s_x = 0, s_y = 0, s_xx = 0, s_xy = 0;
   for (size_t k = 0; k < (flatness.size() + 1) / 2; ++k) {
     const int b = flatness[k].second;
-    pooled += std::max(0.0, sum2[b] - sum[b] * sum[b] / d.count[b]);
-    pooled_n += d.count[b] - 1;
+    const double n = d.count[b];
+    // Residual sum of squares after a straight line in v.
+    const double sxx = sum2[b] - sum[b] * sum[b] / n;
+    const double svv = sum_vv[b] - sum_v[b] * sum_v[b] / n;
+    const double sxv = sum_xv[b] - sum[b] * sum_v[b] / n;
+    const double var = std::max(0.0, svv > 0 ? sxx - sxv * sxv / svv : sxx) / (n - 2);
+    const double w = n - 2, x = d.value[b];
+    s_w += w;
+    s_x += w * x;
+    s_y += w * var;
+    s_xx += w * x * x;
+    s_xy += w * x * var;
+  }
+  double a = s_w > 0 ? s_y / s_w : 0.0, slope = 0.0;
+  const double det = s_w * s_xx - s_x * s_x;
+  if (s_w > 0 && det > 1e-12 * s_w * s_xx) {
+    slope = std::max(0.0, (s_w * s_xy - s_x * s_y) / det);
+    a = std::max(0.0, (s_y - slope * s_x) / s_w);
   }
   const double floor_sd = 2e-3 * (level_n ? level / level_n : 1.0);
-  out.noise_sd = std::sqrt(pooled_n ? pooled / pooled_n : 0.0);
-  const double sd = std::max(out.noise_sd, floor_sd);
+  const double mean_level = s_w > 0 ? s_x / s_w : 0.0;
+  out.noise_sd = std::sqrt(std::max(0.0, a + slope * mean_level));
   for (int b = 0; b < d.bin_count; ++b)
-    if (d.count[b] > 0) d.sigma[b] = sd / std::sqrt(double(d.count[b]));
+    if (d.count[b] > 0) {
+      const double var = std::max(a + slope * std::max(0.0, d.value[b]), floor_sd * floor_sd);
+      d.sigma[b] = std::sqrt(var / d.count[b]);
+    }
 
   d.ideal = ideal_boxes(layout, index, s, 0.25 * d.bin_mm);
   return out;

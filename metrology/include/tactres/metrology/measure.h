@@ -49,6 +49,7 @@ struct MeasureOptions {
   double min_px_per_bar = 1.5;      // below: below_sampling_limit
   double aliasing_chi2 = 16;        // reduced chi^2 above which a fine element is aliased
   double max_m_sigma = 0.25;        // above: low_signal
+  double max_patch_chi2 = 50;       // above: the capture does not match the layout
   std::string signature = "auto";   // auto | albedo | shading
 
   static MeasureOptions for_preset(Preset p);
@@ -75,6 +76,7 @@ struct ReferenceResult {
   // across y (horizontal bars), with standard errors.
   double contrast_x = 0, contrast_x_sigma = 0;
   double contrast_y = 0, contrast_y_sigma = 0;
+  double chi2_x = 0, chi2_y = 0;  // reduced chi^2 of the patch fits
 };
 
 struct Measurement {
