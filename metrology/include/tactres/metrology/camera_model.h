@@ -25,14 +25,6 @@
 
 namespace tactres {
 
-// A point or direction in the camera frame.
-// NOTE: targets/stl.h defines a token-identical tactres::Vec3 (kept identical
-// so that separate translation units agree); it belongs in
-// targets/geometry.h, after which this definition should go.
-struct Vec3 {
-  double x = 0.0, y = 0.0, z = 0.0;
-};
-
 // One projected point. `valid` is false where mrcal's result is meaningless:
 // a point behind (or in the plane of) the camera for models that cannot
 // project there, or a non-finite result.

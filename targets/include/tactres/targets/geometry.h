@@ -12,6 +12,11 @@ struct Vec2 {
   double y = 0.0;
 };
 
+// A point or direction in 3-D (camera frame or relief mesh), in mm.
+struct Vec3 {
+  double x = 0.0, y = 0.0, z = 0.0;
+};
+
 inline Vec2 operator+(Vec2 a, Vec2 b) { return {a.x + b.x, a.y + b.y}; }
 inline Vec2 operator-(Vec2 a, Vec2 b) { return {a.x - b.x, a.y - b.y}; }
 inline Vec2 operator*(double s, Vec2 a) { return {s * a.x, s * a.y}; }

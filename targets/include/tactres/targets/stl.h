@@ -13,6 +13,8 @@
 #include <string_view>
 #include <vector>
 
+#include "tactres/targets/geometry.h"
+
 #include "tactres/targets/layout.h"
 
 namespace tactres {
@@ -22,10 +24,6 @@ struct StlOptions {
 
   // Throws std::invalid_argument naming the option and its range.
   void validate() const;
-};
-
-struct Vec3 {
-  double x = 0.0, y = 0.0, z = 0.0;
 };
 
 // Vertices are shared by index; triangles wind counter-clockwise seen from
