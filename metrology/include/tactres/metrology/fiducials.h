@@ -1,0 +1,127 @@
+#pragma once
+// Finds and identifies the target's five fiducial discs in a capture
+// (DESIGN.md, "Measurement", step 2: locate).
+//
+// The layout has five equal discs: TL, TR, BL, BR near the corners and T3 on
+// the top edge a third of the way from TL to TR. Identification is purely
+// geometric, so it holds at any in-plane rotation and in mirrored
+// (through-gel) views: the only collinear triple with a disc strictly between
+// two others is (TL, T3, TR), and a plane homography fitted to all five
+// correspondences must map the layout's field without folding it. The image's
+// handedness is never used. Each hypothesis is then checked against what
+// the map predicts: every disc's image area and shape, and, for printed
+// (inked) targets, ink where the reference patch should be.
+//
+// Four discs are enough (and reported, with a warning) when they identify
+// themselves: always for a printed target (with T3 hidden, the patch decides
+// between the rectangle's symmetric labellings); never for rings or shaded
+// discs, whose images say too little.
+//
+// Centroids are sub-pixel AREA centroids of each disc's image: the
+// coverage-weighted centroid sum(w x) / sum(w) with
+// w = clamp((I - ground) / (ink - ground), 0, 1), ground a plane fitted to an
+// annulus around the disc (so smooth illumination gradients cancel) and ink
+// the disc's extreme level. For an exact area-coverage render this is the area
+// centroid of the projected disc, and it does not move under symmetric blur.
+// That is what fit_pose() (pose.h) predicts for each disc.
+//
+// Rings (a relief seen through a gel) get the same weights, so their
+// centroid is the ring's; shaded discs (light and dark crescents) weight
+// |I - ground|. Both are exact for affine views and approximate the disc's
+// area centroid under perspective.
+//
+// Pixel convention (mrcal's and OpenCV's): the top-left pixel's centre is
+// (0, 0).
+//
+// Cost: ~2.5 ms of one core for a 1280x720 capture with the target found on
+// the 2x-downsampled pass; up to ~20 ms when nothing is found.
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "tactres/targets/geometry.h"
+#include "tactres/targets/layout.h"
+
+namespace tactres {
+
+struct FiducialSearchOptions {
+  // Smallest disc radius (px) to look for, in (1, 1000]. Discs are searched
+  // on a 2x-downsampled copy first (fast); full resolution is searched only
+  // if that finds no complete pattern.
+  double min_radius_px = 2.5;
+  // Largest angle between the target's normal and the line of sight, in
+  // [0, 80] degrees. It bounds the apparent elongation of the discs.
+  double max_tilt_deg = 60.0;
+  // Largest ratio between the apparent areas of two discs of one target, in
+  // [1.5, 100]: tilt and perspective make near discs look larger.
+  double max_area_ratio = 4.0;
+  // The disc centroids must fit a plane homography to within this RMS
+  // fraction of the TL-TR distance, and TL, T3, TR be collinear to within
+  // it; the discs' shapes may deviate from the homography's prediction more
+  // as it grows. The default leaves room for moderate lens distortion (~5 %
+  // at the target's corners); raise it for fisheye lenses, at a higher risk
+  // of taking a chance arrangement of round blobs for the target. (0, 0.2].
+  double max_fit_error_frac = 0.02;
+  // Disc-like blobs kept per polarity (best ellipse fits first), in [5, 1000].
+  int max_candidates = 40;
+
+  // Throws std::invalid_argument naming the bad option and its valid range.
+  void validate() const;
+};
+
+struct FiducialDetection {
+  std::string id;           // the layout's fiducial id: "TL", "T3", "TR", "BL", "BR"
+  Vec2 centroid_px;         // area centroid of the disc's image (see above)
+  double area_px = 0.0;     // coverage area sum(w), px^2: the projected disc's area
+  double axis_ratio = 1.0;  // minor / major axis of the image ellipse (~cos tilt)
+  // Relative RMS deviation of the blob's outline from its moment ellipse
+  // (0 for a perfect ellipse, ~0.11 for a square).
+  double ellipse_residual = 0.0;
+  // ink - ground level at the disc centre, in input units: negative for a
+  // dark disc on a light ground (|.|, positive, for shaded discs).
+  double contrast = 0.0;
+};
+
+struct FiducialSearchResult {
+  // True when at least 4 discs were found AND identified unambiguously
+  // (fit_pose needs >= 4). With exactly 4, `warning` names the missing one.
+  bool found = false;
+  // Identified discs in layout.fiducials order (all 5, or 4 when found with
+  // one missing; empty when !found).
+  std::vector<FiducialDetection> discs;
+  // Why !found, as a message a user can act on. Empty when found.
+  std::string problem;
+  // Set when found with only 4 discs: still usable, but the pose is weaker.
+  std::string warning;
+  // Polarity of the found discs: true for dark discs on a lighter ground.
+  // Relief targets seen through a gel may show either.
+  bool dark_on_light = true;
+  // The discs showed as a light and a dark crescent (a relief under a
+  // directional light); their centroids weight |I - ground|, and
+  // dark_on_light is false.
+  bool shaded = false;
+  // Row-major 3x3 homography from target mm (z = 0) to pixels, fitted to the
+  // identified disc centroids (an affine map when the 4 found discs include
+  // a collinear triple). A rough map for initial guesses only: it ignores
+  // lens distortion and the centroid-vs-centre offset. Valid when found.
+  std::array<double, 9> image_from_target{};
+  // RMS of the centroids' residuals to that map, px (0 for an exact 4-point fit).
+  double fit_rms_px = 0.0;
+  // Disc-like blobs examined in the polarity that was kept (diagnostics).
+  int candidates = 0;
+};
+
+// Finds the layout's fiducial discs in `luminance` (CV_32FC1, finite values,
+// any scale; linear luminance is best). Tries the layout's polarity first,
+// then the other one (relief targets through a gel show either, often as
+// rings), then shaded discs (light and dark crescents).
+// Throws std::invalid_argument for an empty or non-CV_32FC1 image, non-finite
+// pixels, invalid options, or a layout whose fiducials are not the 5-disc
+// pattern described above. "Not found" is a result, never an exception.
+FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout& layout,
+                                    const FiducialSearchOptions& options = {});
+
+}  // namespace tactres
