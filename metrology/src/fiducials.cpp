@@ -328,11 +328,16 @@ Normalised normalise(const cv::Mat& lum, int scale) {
   // Log of luminance minus its local (geometric) mean: multiplicative
   // illumination gradients and vignetting cancel, and both polarities are
   // symmetric around 0. The offset keeps a dark ground's noise from exploding.
-  const double base = std::min(lo, 0.0);
-  const double eps = 0.01 * (hi - base);
-  cv::Mat L;
-  cv::max(img - base, 0.0, L);
-  L += eps;
+  const float base = static_cast<float>(std::min(lo, 0.0));
+  const float eps = static_cast<float>(0.01 * (hi - base));
+  // One buffer, transformed in place: full-resolution temporaries cost more
+  // in page faults than in arithmetic.
+  cv::Mat L(img.size(), CV_32F);
+  for (int y = 0; y < img.rows; ++y) {
+    const float* src = img.ptr<float>(y);
+    float* dst = L.ptr<float>(y);
+    for (int x = 0; x < img.cols; ++x) dst[x] = std::max(src[x] - base, 0.0f) + eps;
+  }
   cv::log(L, L);
   // The box must be several disc diameters wide: a disc of a target that
   // fills the image is ~6 % of its height across.
@@ -340,7 +345,8 @@ Normalised normalise(const cv::Mat& lum, int scale) {
   k = std::max(k, 15);
   cv::Mat B;
   cv::blur(L, B, cv::Size(k, k), cv::Point(-1, -1), cv::BORDER_REFLECT);
-  out.n = L - B;
+  cv::subtract(L, B, L);
+  out.n = L;
   std::vector<float> an = sample_pixels(out.n, 5000);
   for (float& x : an) x = std::abs(x);
   out.sn = std::max(percentile_of(an, 0.998), 0.05);
@@ -1328,16 +1334,17 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
   int best_partial = 0;
   bool any_ambiguous = false;
   double best_score = kInf;
-  int found_mode = -1;
-  for (int scale : scales) {
-    const Normalised nz = normalise(luminance, scale);
-    Detection det;
-    det.scale = scale;
-    for (int pol : pol_order) {
-      // Once 4 discs are identified in one mode, only a finer scale in that
-      // mode might add the fifth.
-      if (found_mode >= 0 && pol != found_mode) continue;
-      detect_mode(nz, pol, options, det);
+  // Mode by mode, coarse to fine: a printed target with small discs is found
+  // at full resolution before the other polarities are tried.
+  std::vector<std::optional<Normalised>> norms(scales.size());
+  std::vector<Detection> dets(scales.size());
+  for (int pol : pol_order) {
+    for (size_t si = 0; si < scales.size(); ++si) {
+      const int scale = scales[si];
+      if (!norms[si]) norms[si] = normalise(luminance, scale);
+      Detection& det = dets[si];
+      det.scale = scale;
+      detect_mode(*norms[si], pol, options, det);
       const auto& blobs = det.blobs[pol];
       RefinedCache refined(luminance, det, pol);
       const Identification id = identify(blobs, pat, options, refined, pol == kShaded);
@@ -1371,7 +1378,6 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
             missing_names(pat, v.cand));
       best = std::move(r);
       best_score = v.score;
-      found_mode = pol;
       if (n == 5) return best;
       // The missing disc's area is within max_area_ratio of the found ones';
       // if even the smallest such disc would have been seen at this scale, a
@@ -1382,8 +1388,9 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
       const double r_detectable = std::max(options.min_radius_px, 2.5 * scale);
       if (r_min_found / std::sqrt(options.max_area_ratio) >= r_detectable) return best;
     }
+    // Four discs in this mode: another mode will not show the fifth.
+    if (best.found) return best;
   }
-  if (best.found) return best;
   best = {};
   best.dark_on_light = layout_dark;
   if (best_partial >= 3 || any_ambiguous)
