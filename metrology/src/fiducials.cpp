@@ -1393,7 +1393,12 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
   }
   best = {};
   best.dark_on_light = layout_dark;
-  if (best_partial >= 3 || any_ambiguous)
+  if (best_partial >= 5)
+    best.problem =
+        "five discs match the fiducial pattern, but the rest of the capture does not match layout.json "
+        "(the reference patch is not where the layout puts it): measure with the layout of the captured "
+        "target";
+  else if (best_partial >= 3 || any_ambiguous)
     best.problem = fmt::format(
         "found {} of the 5 fiducial discs{}: the target is partly out of view or occluded; frame "
         "the whole target",

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
@@ -192,6 +193,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   ReferenceResult& ref = M.reference;
   {
     ProfileSamplingOptions ps = options.sampling;
+    ps.bin_px = std::max(ps.bin_px, 0.5);  // the patch's long edges need no finer bins
     SampledProfile px = sample_strip(lum, view, layout, index, patch_strip(layout, true), ps, clip_level);
     SampledProfile py = sample_strip(lum, view, layout, index, patch_strip(layout, false), ps, clip_level);
     if (!px.in_view || !py.in_view) {
@@ -211,14 +213,16 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
         ref.signature = options.signature == "albedo" ? Signature::albedo : Signature::shading;
         fits = fit_both(ref.signature);
       } else {
-        auto a = fit_both(Signature::albedo);
-        auto s = fit_both(Signature::shading);
-        auto cost = [](const std::pair<ProfileFit, ProfileFit>& f) {
-          if (!f.first.usable || !f.second.usable) return 1e300;
-          return f.first.chi2_reduced + f.second.chi2_reduced;
-        };
-        ref.signature = cost(s) < cost(a) ? Signature::shading : Signature::albedo;
-        fits = ref.signature == Signature::shading ? s : a;
+        // Choose the model that describes the patch across x, then fit the
+        // other direction with it.
+        fo.signature = Signature::albedo;
+        ProfileFit albedo_x = fit_profile(px.data, fo);
+        fo.signature = Signature::shading;
+        ProfileFit shading_x = fit_profile(px.data, fo);
+        auto cost = [](const ProfileFit& f) { return f.usable ? f.chi2_reduced : 1e300; };
+        ref.signature = cost(shading_x) < cost(albedo_x) ? Signature::shading : Signature::albedo;
+        fo.signature = ref.signature;
+        fits = {ref.signature == Signature::shading ? shading_x : albedo_x, fit_profile(py.data, fo)};
       }
       if (!fits.first.usable || !fits.second.usable) {
         ref.problem = "the reference patch could not be fitted: " +
@@ -263,6 +267,8 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   // Elements.
   t = Clock::now();
   double sample_s = 0, fit_s = 0;
+  // Warm start per orientation from the last good fit (coarse to fine).
+  std::pair<double, double> last_lsf[2] = {{0, 0}, {0, 0}};
   for (const ElementLayout& e : layout.elements) {
     ElementResult r;
     r.group = e.group;
@@ -298,7 +304,9 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
       fo.contrast = across_x ? ref.contrast_x : ref.contrast_y;
       const double contrast_sigma = across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma;
       fo.fit_shape = options.fit_psf_shape;
+      std::tie(fo.start_nu0_per_mm, fo.start_beta) = last_lsf[across_x];
       const ProfileFit fit = fit_profile(sp.data, fo);
+      if (fit.usable) last_lsf[across_x] = {fit.nu0_per_mm, fit.beta};
       fit_s += since(ts);
       if (!fit.usable) {
         r.status = ElementStatus::fit_failed;
@@ -311,9 +319,13 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
         r.chi2_reduced = fit.chi2_reduced;
         if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
           r.status = ElementStatus::fit_failed;
-        } else if (fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0) {
+        } else if (fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0 &&
+                   fit.residual_rms > 0.5 * std::abs(fo.contrast * fit.b0) * std::max(m, 0.05)) {
           // The bars are not where the layout puts them at this sampling:
-          // the image shows another period or bar count.
+          // the image shows another period or bar count. Both tests must
+          // agree: the misfit exceeds the noise, and it is a sizeable share
+          // of the bars' own modulation (a noise-free capture's tiny model
+          // error passes the first test alone).
           r.status = ElementStatus::aliased;
         } else if (m_sigma > options.max_m_sigma) {
           r.status = ElementStatus::low_signal;

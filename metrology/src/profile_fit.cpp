@@ -25,51 +25,59 @@ class GridModel {
   // the bins is padding against wrap-around). Sampling the continuous
   // spectrum G(nu_k) and inverting the DFT gives g(u_j) exactly for a
   // band-limited product S^ T; T decays long before the grid's Nyquist.
+  // The profile is real, so only nu_k >= 0 is kept (OpenCV's CCS packing).
   GridModel(const ProfileData& d, Signature sig) : d_(d) {
-    const int n = d.bin_count;
-    n_fft_ = cv::getOptimalDFTSize(2 * n);
+    n_fft_ = cv::getOptimalDFTSize(2 * d.bin_count);
+    while (n_fft_ % 2) n_fft_ = cv::getOptimalDFTSize(n_fft_ + 1);
+    const int half = n_fft_ / 2;
+    const double dnu = 1.0 / (n_fft_ * d.bin_mm);
     const double u_start = d.bin_center_mm(0);
-    s_hat_.create(1, n_fft_, CV_64FC2);
-    nu_.resize(n_fft_);
-    for (int k = 0; k < n_fft_; ++k) {
-      const int kk = k <= n_fft_ / 2 ? k : k - n_fft_;
-      const double nu = kk / (n_fft_ * d.bin_mm);
-      nu_[k] = nu;
-      // S^(nu) = sum level * (e^{-2 pi i nu a} - e^{-2 pi i nu b}) / (2 pi i nu)
-      std::complex<double> S = 0;
-      for (const IdealBox& b : d.ideal) {
-        const double a0 = b.u0_mm - u_start, a1 = b.u1_mm - u_start;
-        if (nu == 0) {
-          S += b.level * (a1 - a0);
-        } else {
-          const std::complex<double> e0 = std::polar(1.0, -kTwoPi * nu * a0);
-          const std::complex<double> e1 = std::polar(1.0, -kTwoPi * nu * a1);
-          S += b.level * (e0 - e1) / std::complex<double>(0, kTwoPi * nu);
-        }
+    std::vector<std::complex<double>> S(half + 1, 0.0);
+    // S^(nu) = sum level (e^{-2 pi i nu a} - e^{-2 pi i nu b}) / (2 pi i nu);
+    // the phase factors advance by a constant rotation per frequency step.
+    for (const IdealBox& b : d.ideal) {
+      const double a0 = b.u0_mm - u_start, a1 = b.u1_mm - u_start;
+      const std::complex<double> w0 = std::polar(1.0, -kTwoPi * dnu * a0);
+      const std::complex<double> w1 = std::polar(1.0, -kTwoPi * dnu * a1);
+      std::complex<double> z0 = 1.0, z1 = 1.0;
+      S[0] += b.level * (a1 - a0);
+      for (int k = 1; k <= half; ++k) {
+        z0 *= w0;
+        z1 *= w1;
+        S[k] += b.level * (z0 - z1) / std::complex<double>(0, kTwoPi * k * dnu);
       }
-      if (sig == Signature::shading) S *= std::complex<double>(0, kTwoPi * nu);  // d/du
-      S *= std::exp(-0.5 * kTwoPi * kTwoPi * d.bin_spread_var_mm2 * nu * nu);    // bin averaging
-      S /= d.bin_mm;  // continuous integral -> DFT coefficient
-      s_hat_.at<cv::Vec2d>(0, k) = {S.real(), S.imag()};
+    }
+    s_re_.resize(half + 1);
+    s_im_.resize(half + 1);
+    log_nu_.resize(half + 1);
+    for (int k = 0; k <= half; ++k) {
+      const double nu = k * dnu;
+      std::complex<double> v = S[k];
+      if (sig == Signature::shading) v *= std::complex<double>(0, kTwoPi * nu);  // d/du
+      v *= std::exp(-0.5 * kTwoPi * kTwoPi * d.bin_spread_var_mm2 * nu * nu);    // bin averaging
+      v /= d.bin_mm;  // continuous integral -> DFT coefficient
+      s_re_[k] = v.real();
+      s_im_[k] = v.imag();
+      log_nu_[k] = k > 0 ? std::log(nu) : 0.0;
     }
   }
 
   // conv = (D S (*) h) on the grid; d_lognu0 and d_beta its derivatives.
   void evaluate(double log_nu0, double beta, std::vector<double>& conv,
                 std::vector<double>* d_lognu0, std::vector<double>* d_beta) const {
-    const double nu0 = std::exp(log_nu0);
-    cv::Mat t(1, n_fft_, CV_64FC2), tn, tb;
-    if (d_lognu0) tn.create(1, n_fft_, CV_64FC2);
-    if (d_beta) tb.create(1, n_fft_, CV_64FC2);
-    for (int k = 0; k < n_fft_; ++k) {
-      const double a = std::abs(nu_[k]) / nu0;
-      const double q = a > 0 ? std::pow(a, beta) : 0.0;
+    const int half = n_fft_ / 2;
+    cv::Mat t(1, n_fft_, CV_64F), tn, tb;
+    if (d_lognu0) tn.create(1, n_fft_, CV_64F);
+    if (d_beta) tb.create(1, n_fft_, CV_64F);
+    for (int k = 0; k <= half; ++k) {
+      // q = (nu / nu0)^beta, through logs: one exp instead of a pow.
+      const double log_a = log_nu_[k] - log_nu0;
+      const double q = k > 0 ? std::exp(beta * log_a) : 0.0;
       const double T = std::exp(-q);
-      const cv::Vec2d s = s_hat_.at<cv::Vec2d>(0, k);
-      t.at<cv::Vec2d>(0, k) = s * T;
       // dT/dlog nu0 = T q beta ; dT/dbeta = -T q ln(a)
-      if (d_lognu0) tn.at<cv::Vec2d>(0, k) = s * (T * q * beta);
-      if (d_beta) tb.at<cv::Vec2d>(0, k) = s * (a > 0 ? -T * q * std::log(a) : 0.0);
+      put(t, k, T);
+      if (d_lognu0) put(tn, k, T * q * beta);
+      if (d_beta) put(tb, k, k > 0 ? -T * q * log_a : 0.0);
     }
     inverse(t, conv);
     if (d_lognu0) inverse(tn, *d_lognu0);
@@ -79,17 +87,28 @@ class GridModel {
   int grid_size() const { return d_.bin_count; }
 
  private:
-  void inverse(const cv::Mat& spectrum, std::vector<double>& out) const {
+  // Writes S^_k * factor into CCS layout: Re0, Re1, Im1, ..., Re(N/2).
+  void put(cv::Mat& ccs, int k, double factor) const {
+    double* p = ccs.ptr<double>(0);
+    const int half = n_fft_ / 2;
+    if (k == 0) p[0] = s_re_[0] * factor;
+    else if (k == half) p[n_fft_ - 1] = s_re_[k] * factor;
+    else {
+      p[2 * k - 1] = s_re_[k] * factor;
+      p[2 * k] = s_im_[k] * factor;
+    }
+  }
+
+  void inverse(const cv::Mat& ccs, std::vector<double>& out) const {
     cv::Mat x;
-    cv::dft(spectrum, x, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_COMPLEX_OUTPUT);
-    out.resize(d_.bin_count);
-    for (size_t i = 0; i < out.size(); ++i) out[i] = x.at<cv::Vec2d>(0, static_cast<int>(i))[0];
+    cv::dft(ccs, x, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
+    const double* p = x.ptr<double>(0);
+    out.assign(p, p + d_.bin_count);
   }
 
   const ProfileData& d_;
   int n_fft_ = 0;
-  cv::Mat s_hat_;
-  std::vector<double> nu_;
+  std::vector<double> s_re_, s_im_, log_nu_;
 };
 
 // One residual per non-empty bin in the fit range, weighted by 1/sigma.
@@ -224,9 +243,14 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
         ground += data.value[i];
         weight += 1;
       }
-  double x[kParamCount] = {ground / weight, 0.0, std::log(0.1 / data.bin_mm),
-                           options.fit_shape ? 2.0 : 2.0,
-                           options.fit_contrast ? -0.5 : options.contrast};
+  const double nu0_start = options.start_nu0_per_mm > 0 ? options.start_nu0_per_mm : 0.1 / data.bin_mm;
+  const double beta_start =
+      options.fit_shape && options.start_beta > 0
+          ? std::clamp(options.start_beta, options.beta_min, options.beta_max)
+          : 2.0;
+  double x[kParamCount] = {ground / weight, 0.0,
+                           std::clamp(std::log(nu0_start), std::log(1e-3), std::log(2.0 / data.bin_mm)),
+                           beta_start, options.fit_contrast ? -0.5 : options.contrast};
 
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;

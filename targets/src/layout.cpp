@@ -142,7 +142,9 @@ struct Placement {
   Vec2 origin_mm;
 };
 
-// Element block, x: pad | label | w | H triplet 5w | 2w | V triplet 5w | pad.
+// Element block, x: pad | label | w | H triplet 5w | 3w | V triplet 5w | pad.
+// The 3w gap keeps the blurred ends of the H bars out of the V triplet's
+// profile window (which reaches 1.5w beyond its outer bars).
 struct ElementGeometry {
   double w, pad, label_h, digit_w, stroke, glyph_gap;
   std::string text;
@@ -162,7 +164,7 @@ ElementGeometry element_geometry(int group, int element) {
 
 Block element_block(int group, int element) {
   const ElementGeometry g = element_geometry(group, element);
-  return {2 * g.pad + g.label_width() + g.w + 12 * g.w, 2 * g.pad + 5 * g.w, group, element, g.w};
+  return {2 * g.pad + g.label_width() + g.w + 13 * g.w, 2 * g.pad + 5 * g.w, group, element, g.w};
 }
 
 void place_element(const Placement& p, TargetLayout& layout) {
@@ -172,7 +174,7 @@ void place_element(const Placement& p, TargetLayout& layout) {
   const double top = o.y + g.pad;
   const double label_x = o.x + g.pad;
   const double h_x = label_x + g.label_width() + w;
-  const double v_x = h_x + 7 * w;
+  const double v_x = h_x + 8 * w;
 
   // Label, vertically centred on the triplets.
   std::vector<RectMm> glyph_rects;

@@ -3,6 +3,7 @@
 // target, an example camera, a pose in view terms, and a list of effects.
 // Rendering goes through the real renderer and the real image files.
 
+#include <cmath>
 #include <filesystem>
 #include <string>
 
@@ -96,6 +97,21 @@ inline Measurement measure_file(const std::filesystem::path& file, const CameraM
                                 Preset preset = Preset::balanced) {
   const LoadedImage img = load_image(file);
   return measure_capture(img, default_layout(), camera, MeasureOptions::for_preset(preset));
+}
+
+// The discrete limit agrees with the truth, or the true crossing lies inside
+// the reported 2-sigma band around the measured limit, where either
+// neighbouring element is a fair answer (issue #4's acceptance rule).
+inline bool discrete_limit_agrees(const Limit& measured, const Limit& truth) {
+  if (measured.any_resolved != truth.any_resolved) return false;
+  if (!measured.any_resolved) return true;
+  if (measured.group == truth.group && measured.element == truth.element) return true;
+  if (!truth.interpolated_lp_per_mm || !measured.interpolated_lp_per_mm) return false;
+  const double band = 2 * measured.uncertainty_lp_per_mm.value_or(0);
+  const double next_lp_per_mm = std::exp2(measured.group + measured.element / 6.0);
+  return std::abs(*truth.interpolated_lp_per_mm - measured.lp_per_mm) <= band ||
+         std::abs(*truth.interpolated_lp_per_mm - next_lp_per_mm) <= band ||
+         std::abs(*truth.interpolated_lp_per_mm - *measured.interpolated_lp_per_mm) <= band;
 }
 
 inline const TruthElement* truth_of(const Truth& t, const ElementResult& e) {

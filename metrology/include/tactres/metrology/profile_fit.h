@@ -74,6 +74,10 @@ struct ProfileFitOptions {
   bool fit_shape = true;        // false: beta fixed at 2 (Gaussian)
   double beta_min = 1.0, beta_max = 4.0;
   int max_iterations = 50;
+  // Start of the LSF parameters (nu0 in cycles/mm, beta); 0 = default. The
+  // chain's blur is shared by all elements, so the previous element's fit
+  // is a good start and saves iterations.
+  double start_nu0_per_mm = 0, start_beta = 0;
 
   void validate() const;  // throws std::invalid_argument
 };
