@@ -21,6 +21,7 @@ struct Command {
 Command generate_command();
 Command simulate_command();
 Command measure_command();
+Command report_command();
 
 // Every subcommand, in the order `tactres --help` lists them.
 std::vector<Command> command_table();

@@ -14,6 +14,9 @@ packages=(
   doctest-dev          # unit tests
   libcli11-dev         # command line
   nlohmann-json3-dev   # JSON
+  libjs-chart.js       # charts, inlined into the HTML report (tactres report)
+  chromium             # headless browser for the HTML report's test
+  fonts-dejavu-core    # a font for the headless browser
 )
 
 missing=()

@@ -1,0 +1,308 @@
+#include "tactres/reports/comparison.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+#include <tuple>
+
+#include <fmt/format.h>
+
+#include "tactres/targets/atomic_file.h"
+
+namespace tactres {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The layout field is the path measure was given, as given. Two spellings
+// of one file (relative vs absolute, another working directory) are the
+// same layout when both can be read here and are byte-identical.
+bool same_layout_file(const std::string& a, const std::string& b) {
+  if (a == b) return true;
+  std::error_code ec;
+  if (!fs::is_regular_file(a, ec) || !fs::is_regular_file(b, ec)) return false;
+  try {
+    return read_file(a) == read_file(b);
+  } catch (const std::runtime_error&) {
+    return false;
+  }
+}
+
+// What identifies the target beyond its file name: the element series
+// (orientation, group, element, frequency). measure lists every layout
+// element, whatever its status; a failed capture lists none.
+using Series = std::vector<std::tuple<int, int, int, long long>>;
+Series element_series(const MeasurementRecord& r) {
+  Series s;
+  for (const ElementRecord& e : r.elements)
+    s.emplace_back(int(e.orientation), e.group, e.element, std::llround(e.lp_per_mm * 1e6));
+  std::sort(s.begin(), s.end());
+  return s;
+}
+
+// `all` is the reference followed by the designs' measurements. The designs
+// are checked among themselves first so that the message says which kind of
+// mix it is.
+void check_same_target(const std::vector<const MeasurementRecord*>& all) {
+  const MeasurementRecord& ref = *all[0];
+  const MeasurementRecord& first_design = *all[1];
+  for (size_t i = 2; i < all.size(); ++i)
+    if (!same_layout_file(first_design.layout, all[i]->layout))
+      throw std::invalid_argument(fmt::format(
+          "mixed layouts: {} was measured on layout \"{}\" but {} on \"{}\"; a comparison needs every design "
+          "measured on one target layout",
+          first_design.path.string(), first_design.layout, all[i]->path.string(), all[i]->layout));
+  if (!same_layout_file(ref.layout, first_design.layout))
+    throw std::invalid_argument(fmt::format(
+        "the reference {} was measured on layout \"{}\" but the designs on \"{}\": measure the bare camera on "
+        "the same target layout",
+        ref.path.string(), ref.layout, first_design.layout));
+  const MeasurementRecord* first = nullptr;
+  Series first_series;
+  for (const MeasurementRecord* r : all) {
+    if (r->elements.empty()) continue;
+    Series s = element_series(*r);
+    if (!first) {
+      first = r;
+      first_series = std::move(s);
+    } else if (s != first_series) {
+      throw std::invalid_argument(fmt::format(
+          "mixed layouts: {} and {} name the layout \"{}\" but list different elements (groups, elements or "
+          "lp/mm differ): the layout file changed between the measurements; re-measure against one layout",
+          first->path.string(), r->path.string(), r->layout));
+    }
+  }
+}
+
+void check_same_criterion(const std::vector<const MeasurementRecord*>& all) {
+  auto same = [](const MeasurementRecord* a, const MeasurementRecord* b) {
+    return a->threshold == b->threshold && a->significance_z == b->significance_z;
+  };
+  const MeasurementRecord* ref = all[0];
+  const MeasurementRecord* first_design = all[1];
+  for (size_t i = 2; i < all.size(); ++i)
+    if (!same(first_design, all[i]))
+      throw std::invalid_argument(fmt::format(
+          "mixed criteria: {} used threshold {} (z {}) but {} threshold {} (z {}); limits from different "
+          "criteria are not comparable: re-measure with one --threshold",
+          first_design->path.string(), first_design->threshold, first_design->significance_z,
+          all[i]->path.string(), all[i]->threshold, all[i]->significance_z));
+  if (!same(ref, first_design))
+    throw std::invalid_argument(fmt::format(
+        "mixed criteria: the reference {} used threshold {} (z {}) but the designs threshold {} (z {}); limits "
+        "from different criteria are not comparable: re-measure with one --threshold",
+        ref->path.string(), ref->threshold, ref->significance_z, first_design->threshold,
+        first_design->significance_z));
+}
+
+double mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return s / double(v.size());
+}
+
+double sample_sd(const std::vector<double>& v) {
+  const double m = mean(v);
+  double s = 0;
+  for (double x : v) s += (x - m) * (x - m);
+  return std::sqrt(s / double(v.size() - 1));
+}
+
+OrientationSummary summarise(const std::vector<const LimitRecord*>& limits) {
+  OrientationSummary o;
+  if (limits.empty()) return o;
+  // Discrete: the coarsest press.
+  o.resolved_any = std::all_of(limits.begin(), limits.end(), [](const LimitRecord* l) { return l->resolved_any; });
+  if (o.resolved_any) {
+    const LimitRecord* coarsest = *std::min_element(
+        limits.begin(), limits.end(), [](const LimitRecord* a, const LimitRecord* b) { return a->lp_per_mm < b->lp_per_mm; });
+    o.group = coarsest->group;
+    o.element = coarsest->element;
+    o.lp_per_mm = coarsest->lp_per_mm;
+    o.beyond_finest = std::all_of(limits.begin(), limits.end(), [](const LimitRecord* l) { return l->beyond_finest; });
+  }
+  // Interpolated: only when every press has one, so that the mean is over
+  // like quantities.
+  std::vector<double> values, sigmas;
+  for (const LimitRecord* l : limits) {
+    if (!l->interpolated_lp_per_mm) return o;
+    values.push_back(*l->interpolated_lp_per_mm);
+    if (l->uncertainty_lp_per_mm) sigmas.push_back(*l->uncertainty_lp_per_mm);
+  }
+  o.interp_lp_per_mm = mean(values);
+  if (values.size() == 1) {
+    if (!sigmas.empty()) o.interp_sigma_lp_per_mm = sigmas[0];
+  } else {
+    const double sd = sample_sd(values);
+    o.interp_sd_lp_per_mm = sd;
+    const double mean_sigma = sigmas.empty() ? 0.0 : mean(sigmas);
+    o.interp_sigma_lp_per_mm = std::hypot(sd, mean_sigma);
+  }
+  return o;
+}
+
+std::optional<double> percent(std::optional<double> value, std::optional<double> reference) {
+  if (!value || !reference || !(*reference > 0)) return std::nullopt;
+  return 100.0 * *value / *reference;
+}
+
+std::optional<double> mean_hv(const DesignRow& r) {
+  const auto h = r.horizontal.value_lp_per_mm(), v = r.vertical.value_lp_per_mm();
+  if (!h || !v) return std::nullopt;
+  return 0.5 * (*h + *v);
+}
+
+}  // namespace
+
+std::optional<double> OrientationSummary::value_lp_per_mm() const {
+  if (interp_lp_per_mm) return interp_lp_per_mm;
+  if (resolved_any) return lp_per_mm;
+  return std::nullopt;
+}
+
+const char* to_string(RowStatus s) {
+  switch (s) {
+    case RowStatus::reference: return "reference";
+    case RowStatus::ok: return "ok";
+    case RowStatus::partly_failed: return "partly_failed";
+    case RowStatus::failed: return "failed";
+  }
+  return "failed";
+}
+
+Comparison compare_designs(std::vector<MeasurementRecord> measurements, MeasurementRecord reference) {
+  if (measurements.empty())
+    throw std::invalid_argument(
+        "no design measurements to compare: give at least one measurement JSON besides --reference");
+  if (!reference.usable)
+    throw std::invalid_argument(fmt::format(
+        "the reference {} is a failed measurement ({}): percentages of the raw CMOS limit need a usable "
+        "measurement of the bare camera; fix and re-measure it",
+        reference.path.string(), reference.problem));
+
+  std::vector<const MeasurementRecord*> all{&reference};
+  for (const MeasurementRecord& m : measurements) all.push_back(&m);
+  check_same_target(all);
+  check_same_criterion(all);
+
+  Comparison c;
+  c.threshold = reference.threshold;
+  c.significance_z = reference.significance_z;
+  c.layout = reference.layout;
+  c.nyquist_h_lp_per_mm = reference.nyquist_h_lp_per_mm;
+  c.nyquist_v_lp_per_mm = reference.nyquist_v_lp_per_mm;
+
+  // Reference row: its own limits, 100 % by definition.
+  DesignRow& ref = c.reference_row;
+  ref.design = reference.design;
+  ref.status = RowStatus::reference;
+  ref.n = 1;
+  ref.horizontal = summarise({&reference.horizontal});
+  ref.vertical = summarise({&reference.vertical});
+  const std::optional<double> ref_h = ref.horizontal.value_lp_per_mm(), ref_v = ref.vertical.value_lp_per_mm();
+  ref.horizontal.pct_of_reference = percent(ref_h, ref_h);
+  ref.vertical.pct_of_reference = percent(ref_v, ref_v);
+  ref.mean_hv_lp_per_mm = mean_hv(ref);
+  ref.mean_pct_of_reference = percent(ref.mean_hv_lp_per_mm, ref.mean_hv_lp_per_mm);
+  for (const auto& [name, s] : {std::pair{"horizontal", &ref.horizontal}, std::pair{"vertical", &ref.vertical}}) {
+    if (!s->resolved_any)
+      c.notes.push_back(fmt::format("The reference resolved no {}-bar element: {} percentages are not available.",
+                                    name, name));
+    else if (s->beyond_finest)
+      c.notes.push_back(fmt::format(
+          "The reference resolved every {}-bar element: its {} limit ({:.2f} lp/mm) is a lower bound, so the "
+          "{} percentages are upper bounds.",
+          name, name, s->lp_per_mm, name));
+    else if (!s->interp_lp_per_mm)
+      c.notes.push_back(fmt::format("The reference has no interpolated {} limit: {} percentages use its discrete "
+                                    "limit ({:.2f} lp/mm).",
+                                    name, name, s->lp_per_mm));
+  }
+  if (!(c.nyquist_h_lp_per_mm > 0) || !(c.nyquist_v_lp_per_mm > 0))
+    c.notes.push_back("The reference gives no sampling (Nyquist) limit.");
+
+  // Group by design label, in order of first appearance.
+  std::map<std::string, size_t> row_of;
+  for (size_t i = 0; i < measurements.size(); ++i) {
+    const std::string& d = measurements[i].design;
+    auto [it, added] = row_of.emplace(d, c.designs.size());
+    if (added) {
+      c.designs.emplace_back();
+      c.designs.back().design = d;
+    }
+    c.designs[it->second].presses.push_back(i);
+  }
+  for (DesignRow& row : c.designs) {
+    std::vector<const LimitRecord*> h, v;
+    for (size_t i : row.presses) {
+      const MeasurementRecord& m = measurements[i];
+      if (m.usable) {
+        h.push_back(&m.horizontal);
+        v.push_back(&m.vertical);
+      } else {
+        row.problems.push_back(m.path.filename().string() + ": " + m.problem);
+      }
+    }
+    row.n = int(h.size());
+    row.n_failed = int(row.presses.size()) - row.n;
+    row.status = row.n == 0 ? RowStatus::failed : row.n_failed > 0 ? RowStatus::partly_failed : RowStatus::ok;
+    if (row.n == 0) continue;
+    row.horizontal = summarise(h);
+    row.vertical = summarise(v);
+    row.horizontal.pct_of_reference = percent(row.horizontal.value_lp_per_mm(), ref_h);
+    row.vertical.pct_of_reference = percent(row.vertical.value_lp_per_mm(), ref_v);
+    row.mean_hv_lp_per_mm = mean_hv(row);
+    row.mean_pct_of_reference = percent(row.mean_hv_lp_per_mm, ref.mean_hv_lp_per_mm);
+  }
+
+  // Competition ranking by the mean of H and V, best first.
+  for (DesignRow& row : c.designs) {
+    if (!row.mean_hv_lp_per_mm) continue;
+    int better = 0;
+    for (const DesignRow& other : c.designs)
+      if (other.mean_hv_lp_per_mm && *other.mean_hv_lp_per_mm > *row.mean_hv_lp_per_mm) ++better;
+    row.rank = better + 1;
+  }
+
+  c.measurements = std::move(measurements);
+  c.reference = std::move(reference);
+  return c;
+}
+
+Comparison load_comparison(const std::vector<fs::path>& measurement_files, const fs::path& reference_file) {
+  if (reference_file.empty())
+    throw std::invalid_argument(
+        "no reference: give the bare camera's measurement with --reference CMOS.json (percentages are of its "
+        "limit)");
+  if (measurement_files.empty())
+    throw std::invalid_argument("no measurement JSONs given: list the designs' result JSONs before --reference");
+
+  std::error_code ec;
+  auto identity = [&](const fs::path& p) {
+    const fs::path c = fs::weakly_canonical(p, ec);
+    return ec ? p.lexically_normal() : c;
+  };
+  const fs::path ref_id = identity(reference_file);
+  std::vector<fs::path> files;
+  std::map<fs::path, fs::path> seen;
+  for (const fs::path& f : measurement_files) {
+    const fs::path id = identity(f);
+    if (id == ref_id) continue;  // e.g. out/*.json includes the reference
+    if (auto [it, added] = seen.emplace(id, f); !added)
+      throw std::invalid_argument(fmt::format("{} is given twice (also as {}): each measurement counts once",
+                                              f.string(), it->second.string()));
+    files.push_back(f);
+  }
+  if (files.empty())
+    throw std::invalid_argument(fmt::format(
+        "the only measurement given is the reference {}: list the designs' result JSONs too",
+        reference_file.string()));
+
+  MeasurementRecord reference = read_measurement_file(reference_file);
+  std::vector<MeasurementRecord> records;
+  for (const fs::path& f : files) records.push_back(read_measurement_file(f));
+  return compare_designs(std::move(records), std::move(reference));
+}
+
+}  // namespace tactres

@@ -1,0 +1,276 @@
+#include "tactres/reports/comparison.h"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "test_measurements.h"
+
+namespace tactres {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::HandLimit;
+using testing::HandMeasurement;
+using testing::hand_measurement;
+using testing::ReportTempDir;
+
+MeasurementRecord record(const HandMeasurement& m, const std::string& file) {
+  return measurement_from_json(hand_measurement(m), file);
+}
+
+HandMeasurement make(const std::string& design, std::optional<double> h, std::optional<double> v,
+                     double sigma = 0.1) {
+  HandMeasurement m;
+  m.design = design;
+  m.h.interp = h;
+  m.h.sigma = h ? std::optional<double>(sigma) : std::nullopt;
+  m.v.interp = v;
+  m.v.sigma = v ? std::optional<double>(sigma) : std::nullopt;
+  return m;
+}
+
+// Reference: H 8.0, V 10.0 lp/mm (interpolated), mean 9.0.
+MeasurementRecord reference() {
+  HandMeasurement m = make("cmos", 8.0, 10.0, 0.2);
+  m.h.group = m.v.group = 3;
+  m.h.lp_per_mm = m.v.lp_per_mm = 8.0;
+  return record(m, "cmos.json");
+}
+
+const DesignRow& row(const Comparison& c, const std::string& design) {
+  for (const DesignRow& r : c.designs)
+    if (r.design == design) return r;
+  FAIL("no row " << design);
+  throw std::logic_error("unreachable");
+}
+
+template <typename F>
+std::string refusal(F&& f) {
+  try {
+    f();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST_CASE("percentages of the reference, mean of H and V, and its percentage") {
+  const Comparison c = compare_designs({record(make("A", 6.0, 5.0), "a.json")}, reference());
+  const DesignRow& a = row(c, "A");
+  CHECK(a.status == RowStatus::ok);
+  CHECK(a.n == 1);
+  REQUIRE(a.horizontal.pct_of_reference);
+  CHECK(*a.horizontal.pct_of_reference == doctest::Approx(75.0));   // 6 / 8
+  CHECK(*a.vertical.pct_of_reference == doctest::Approx(50.0));     // 5 / 10
+  CHECK(*a.mean_hv_lp_per_mm == doctest::Approx(5.5));
+  CHECK(*a.mean_pct_of_reference == doctest::Approx(100.0 * 5.5 / 9.0));
+  // One press: the measurement's own uncertainty, no spread.
+  CHECK(*a.horizontal.interp_sigma_lp_per_mm == doctest::Approx(0.1));
+  CHECK_FALSE(a.horizontal.interp_sd_lp_per_mm);
+  CHECK(*a.rank == 1);
+  // The reference row: 100 %, its own numbers, never ranked.
+  CHECK(c.reference_row.status == RowStatus::reference);
+  CHECK(*c.reference_row.horizontal.pct_of_reference == doctest::Approx(100.0));
+  CHECK(*c.reference_row.mean_hv_lp_per_mm == doctest::Approx(9.0));
+  CHECK_FALSE(c.reference_row.rank);
+  CHECK(c.nyquist_h_lp_per_mm == doctest::Approx(10.0));
+  CHECK(c.threshold == doctest::Approx(0.10));
+}
+
+TEST_CASE("without an interpolated limit the discrete one is compared") {
+  HandMeasurement m = make("B", std::nullopt, 5.0);
+  m.h.group = 3;
+  m.h.element = 4;
+  m.h.lp_per_mm = 12.0;
+  m.h.beyond_finest = true;  // everything resolved: no crossing to interpolate
+  const Comparison c = compare_designs({record(m, "b.json")}, reference());
+  const DesignRow& b = row(c, "B");
+  CHECK_FALSE(b.horizontal.interp_lp_per_mm);
+  CHECK(b.horizontal.beyond_finest);
+  CHECK(*b.horizontal.value_lp_per_mm() == doctest::Approx(12.0));
+  CHECK(*b.horizontal.pct_of_reference == doctest::Approx(150.0));
+  CHECK(*b.mean_hv_lp_per_mm == doctest::Approx(8.5));
+}
+
+TEST_CASE("a reference without interpolation: its discrete limit, and a note says so") {
+  HandMeasurement ref = make("cmos", std::nullopt, 10.0);
+  ref.h.lp_per_mm = 5.0;
+  const Comparison c = compare_designs({record(make("A", 6.0, 5.0), "a.json")}, record(ref, "cmos.json"));
+  CHECK(*row(c, "A").horizontal.pct_of_reference == doctest::Approx(120.0));  // 6 / 5 discrete
+  REQUIRE(c.notes.size() == 1);
+  CHECK(c.notes[0].find("discrete") != std::string::npos);
+}
+
+TEST_CASE("repeated presses: mean, sample SD, combined uncertainty, coarsest discrete limit") {
+  HandMeasurement p1 = make("T1", 5.0, 4.0, 0.1), p2 = make("T1", 6.0, 4.0, 0.2), p3 = make("T1", 7.0, 4.0, 0.3);
+  p2.h.element = 3;
+  p2.h.lp_per_mm = 5.04;
+  p1.h.lp_per_mm = 4.49;
+  p1.h.element = 2;
+  p3.h.lp_per_mm = 5.66;
+  p3.h.element = 4;
+  const Comparison c = compare_designs(
+      {record(p1, "t1a.json"), record(make("X", 4.0, 4.0), "x.json"), record(p2, "t1b.json"), record(p3, "t1c.json")},
+      reference());
+  REQUIRE(c.designs.size() == 2);
+  CHECK(c.designs[0].design == "T1");  // order of first appearance
+  const DesignRow& t = row(c, "T1");
+  CHECK(t.n == 3);
+  CHECK(t.presses == std::vector<size_t>{0, 2, 3});
+  CHECK(*t.horizontal.interp_lp_per_mm == doctest::Approx(6.0));
+  CHECK(*t.horizontal.interp_sd_lp_per_mm == doctest::Approx(1.0));  // sample SD of 5, 6, 7
+  // sqrt(SD^2 + mean(sigma)^2) = sqrt(1 + 0.2^2)
+  CHECK(*t.horizontal.interp_sigma_lp_per_mm == doctest::Approx(std::sqrt(1.04)));
+  CHECK(*t.horizontal.pct_of_reference == doctest::Approx(75.0));
+  // The discrete limit every press reached: the coarsest, G2E2 4.49.
+  CHECK(t.horizontal.element == 2);
+  CHECK(t.horizontal.lp_per_mm == doctest::Approx(4.49));
+  // Identical values: SD 0, sigma is the mean uncertainty.
+  CHECK(*t.vertical.interp_sd_lp_per_mm == doctest::Approx(0.0));
+  CHECK(*t.vertical.interp_sigma_lp_per_mm == doctest::Approx(0.2));
+}
+
+TEST_CASE("a press without a crossing leaves the group without an interpolated mean") {
+  HandMeasurement p2 = make("T1", std::nullopt, 4.0);
+  p2.h.lp_per_mm = 12.0;
+  p2.h.beyond_finest = true;
+  const Comparison c = compare_designs({record(make("T1", 5.0, 4.0), "a.json"), record(p2, "b.json")}, reference());
+  const DesignRow& t = row(c, "T1");
+  CHECK_FALSE(t.horizontal.interp_lp_per_mm);
+  CHECK_FALSE(t.horizontal.beyond_finest);  // only one of the two presses
+  CHECK(*t.horizontal.value_lp_per_mm() == doctest::Approx(4.0));  // the coarsest discrete limit
+}
+
+TEST_CASE("ranks: by mean of H and V, ties share a rank; failed and unresolved designs are unranked") {
+  HandMeasurement failed = make("F", std::nullopt, std::nullopt);
+  failed.usable = false;
+  failed.problem = "no target found: check the focus";
+  HandMeasurement none = make("N", std::nullopt, 5.0);
+  none.h.resolved = false;  // nothing resolved horizontally: no value, no mean
+  const Comparison c = compare_designs({record(make("A", 6.0, 6.0), "a.json"), record(failed, "f.json"),
+                                        record(make("B", 7.0, 7.0), "b.json"), record(make("C", 5.0, 7.0), "c.json"),
+                                        record(none, "n.json"), record(make("D", 2.0, 3.0), "d.json")},
+                                       reference());
+  CHECK(*row(c, "B").rank == 1);
+  CHECK(*row(c, "A").rank == 2);  // mean 6
+  CHECK(*row(c, "C").rank == 2);  // mean 6 too
+  CHECK(*row(c, "D").rank == 4);
+  CHECK_FALSE(row(c, "N").rank);
+  CHECK_FALSE(row(c, "N").mean_hv_lp_per_mm);
+  CHECK(*row(c, "N").vertical.pct_of_reference == doctest::Approx(50.0));
+
+  // The failed design is shown as failed with its problem, never dropped.
+  const DesignRow& f = row(c, "F");
+  CHECK(f.status == RowStatus::failed);
+  CHECK(f.n == 0);
+  CHECK(f.n_failed == 1);
+  CHECK_FALSE(f.rank);
+  CHECK_FALSE(f.mean_hv_lp_per_mm);
+  REQUIRE(f.problems.size() == 1);
+  CHECK(f.problems[0] == "f.json: no target found: check the focus");
+  CHECK(c.designs.size() == 6);
+}
+
+TEST_CASE("a design with some failed presses aggregates the usable ones and says so") {
+  HandMeasurement bad = make("T1", std::nullopt, std::nullopt);
+  bad.usable = false;
+  bad.problem = "clipped";
+  const Comparison c =
+      compare_designs({record(make("T1", 6.0, 6.0), "a.json"), record(bad, "b.json")}, reference());
+  const DesignRow& t = row(c, "T1");
+  CHECK(t.status == RowStatus::partly_failed);
+  CHECK(t.n == 1);
+  CHECK(t.n_failed == 1);
+  CHECK(*t.horizontal.interp_lp_per_mm == doctest::Approx(6.0));
+  CHECK(*t.rank == 1);
+}
+
+TEST_CASE("refusals: failed reference, mixed layouts, mixed criteria, no designs") {
+  CHECK(refusal([] { compare_designs({}, reference()); }).find("no design measurements") != std::string::npos);
+
+  HandMeasurement bad_ref = make("cmos", std::nullopt, std::nullopt);
+  bad_ref.usable = false;
+  bad_ref.problem = "no target found";
+  const std::string failed_ref =
+      refusal([&] { compare_designs({record(make("A", 6.0, 5.0), "a.json")}, record(bad_ref, "cmos.json")); });
+  CHECK(failed_ref.find("the reference cmos.json is a failed measurement (no target found)") != std::string::npos);
+
+  HandMeasurement other = make("B", 6.0, 5.0);
+  other.layout = "other/layout.json";
+  const std::string mixed = refusal([&] {
+    compare_designs({record(make("A", 6.0, 5.0), "a.json"), record(other, "b.json")}, reference());
+  });
+  CHECK(mixed.find("mixed layouts: a.json was measured on layout \"target/layout.json\" but b.json on "
+                   "\"other/layout.json\"") != std::string::npos);
+
+  const std::string ref_layout =
+      refusal([&] { compare_designs({record(other, "b.json")}, reference()); });
+  CHECK(ref_layout.find("the reference cmos.json was measured on layout \"target/layout.json\" but the designs on "
+                        "\"other/layout.json\"") != std::string::npos);
+
+  HandMeasurement changed = make("B", 6.0, 5.0);
+  changed.finest_lp_per_mm = 9.0;  // same file name, other element series
+  const std::string series = refusal([&] { compare_designs({record(changed, "b.json")}, reference()); });
+  CHECK(series.find("list different elements") != std::string::npos);
+  CHECK(series.find("b.json") != std::string::npos);
+
+  HandMeasurement strict = make("B", 6.0, 5.0);
+  strict.threshold = 0.2;
+  const std::string crit = refusal([&] {
+    compare_designs({record(make("A", 6.0, 5.0), "a.json"), record(strict, "b.json")}, reference());
+  });
+  CHECK(crit.find("mixed criteria: a.json used threshold 0.1 (z 2) but b.json threshold 0.2") != std::string::npos);
+  const std::string ref_crit = refusal([&] { compare_designs({record(strict, "b.json")}, reference()); });
+  CHECK(ref_crit.find("mixed criteria: the reference cmos.json used threshold 0.1") != std::string::npos);
+}
+
+TEST_CASE("load_comparison: files, the reference skipped in a glob, and refusals") {
+  ReportTempDir dir("reports-compare");
+  const fs::path ref = dir.write("cmos.json", hand_measurement(make("cmos", 8.0, 10.0)).dump());
+  const fs::path a = dir.write("a.json", hand_measurement(make("A", 6.0, 5.0)).dump());
+  const fs::path b = dir.write("b.json", hand_measurement(make("B", 4.0, 5.0)).dump());
+
+  // A glob such as out/*.json includes the reference itself: it is not a design.
+  const Comparison c = load_comparison({a, ref, b}, ref);
+  REQUIRE(c.designs.size() == 2);
+  CHECK(c.measurements[0].path == a);
+  CHECK(*row(c, "B").horizontal.pct_of_reference == doctest::Approx(50.0));
+
+  CHECK(refusal([&] { load_comparison({}, ref); }).find("no measurement JSONs given") != std::string::npos);
+  CHECK(refusal([&] { load_comparison({a}, ""); }).find("no reference") != std::string::npos);
+  CHECK(refusal([&] { load_comparison({ref}, ref); }).find("the only measurement given is the reference") !=
+        std::string::npos);
+  CHECK(refusal([&] { load_comparison({a, dir.path / "." / "a.json"}, ref); }).find("is given twice") !=
+        std::string::npos);
+
+  const fs::path broken = dir.write("broken.json", "{\"schema\": ");
+  const std::string m = refusal([&] { load_comparison({a, broken}, ref); });
+  CHECK(m.find(broken.string()) != std::string::npos);
+  try {
+    load_comparison({a, dir.path / "nope.json"}, ref);
+    FAIL("no error for a missing file");
+  } catch (const std::runtime_error& e) {
+    CHECK(std::string(e.what()).find("nope.json") != std::string::npos);
+  }
+}
+
+TEST_CASE("one layout spelt two ways is one layout when the files are identical") {
+  ReportTempDir dir("reports-layout");
+  const fs::path l1 = dir.write("layout.json", "{\"same\": true}");
+  fs::create_directories(dir.path / "copy");
+  const fs::path l2 = dir.write("copy/layout.json", "{\"same\": true}");
+  HandMeasurement ref = make("cmos", 8.0, 10.0), a = make("A", 6.0, 5.0);
+  ref.layout = l1.string();
+  a.layout = l2.string();
+  CHECK_NOTHROW(compare_designs({record(a, "a.json")}, record(ref, "cmos.json")));
+  dir.write("copy/layout.json", "{\"same\": false}");
+  CHECK(refusal([&] { compare_designs({record(a, "a.json")}, record(ref, "cmos.json")); })
+            .find("the reference cmos.json was measured on layout") != std::string::npos);
+}
+
+}  // namespace
+}  // namespace tactres

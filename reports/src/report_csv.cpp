@@ -1,0 +1,80 @@
+#include "tactres/reports/report_csv.h"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+namespace tactres {
+namespace {
+
+std::string quote(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char ch : s) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+  return q + "\"";
+}
+
+std::string num(std::optional<double> v, int digits) {
+  return v && std::isfinite(*v) ? fmt::format("{:.{}f}", *v, digits) : std::string();
+}
+
+// group,element,lp_per_mm,beyond_finest,interp,interp_sd,interp_sigma,pct
+std::string orientation_cells(const OrientationSummary& o, bool measured) {
+  if (!measured) return ",,,,,,,";
+  const bool r = o.resolved_any;
+  return fmt::format("{},{},{},{},{},{},{},{}", r ? std::to_string(o.group) : "", r ? std::to_string(o.element) : "",
+                     r ? num(o.lp_per_mm, 4) : "", r ? (o.beyond_finest ? "true" : "false") : "",
+                     num(o.interp_lp_per_mm, 4), num(o.interp_sd_lp_per_mm, 4), num(o.interp_sigma_lp_per_mm, 4),
+                     num(o.pct_of_reference, 2));
+}
+
+std::string row_csv(const Comparison& c, const DesignRow& row) {
+  const bool is_ref = row.status == RowStatus::reference;
+  const bool measured = row.n > 0;
+  std::string files;
+  if (is_ref) {
+    files = c.reference.path.string();
+  } else {
+    for (size_t i : row.presses) {
+      if (!files.empty()) files += ';';  // piecewise: GCC 12 warns falsely on "..." + string
+      files += c.measurements[i].path.string();
+    }
+  }
+  std::string problems;
+  for (const std::string& p : row.problems) {
+    if (!problems.empty()) problems += " | ";
+    problems += p;
+  }
+  // Sigma basis: which uncertainty interp_sigma is (docs/REPORT.md).
+  const char* basis = row.n == 1 ? "measurement" : row.n >= 2 ? "spread_and_mean_sigma" : "";
+  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", is_ref ? "reference" : "design",
+                     quote(row.design), row.n, row.n_failed, to_string(row.status),
+                     orientation_cells(row.horizontal, measured), orientation_cells(row.vertical, measured), basis,
+                     num(row.mean_hv_lp_per_mm, 4), num(row.mean_pct_of_reference, 2),
+                     row.rank ? std::to_string(*row.rank) : "",
+                     is_ref && c.nyquist_h_lp_per_mm > 0 ? num(c.nyquist_h_lp_per_mm, 4) : "",
+                     is_ref && c.nyquist_v_lp_per_mm > 0 ? num(c.nyquist_v_lp_per_mm, 4) : "",
+                     fmt::format("{}", c.threshold), quote(problems), quote(files));
+}
+
+}  // namespace
+
+std::string report_csv_header() {
+  std::string h = "role,design,n,n_failed,status";
+  for (const char* o : {"h", "v"})
+    h += fmt::format(
+        ",{0}_group,{0}_element,{0}_lp_per_mm,{0}_beyond_finest,{0}_interp_lp_per_mm,{0}_interp_sd_lp_per_mm,"
+        "{0}_interp_sigma_lp_per_mm,{0}_pct_of_reference",
+        o);
+  h += ",sigma_basis,mean_hv_lp_per_mm,mean_pct_of_reference,rank,nyquist_h_lp_per_mm,nyquist_v_lp_per_mm,"
+       "threshold,problem,files\n";
+  return h;
+}
+
+std::string report_csv(const Comparison& c) {
+  std::string out = report_csv_header() + row_csv(c, c.reference_row);
+  for (const DesignRow& row : c.designs) out += row_csv(c, row);
+  return out;
+}
+
+}  // namespace tactres
