@@ -116,14 +116,19 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
 void write_image(const std::filesystem::path& path, const cv::Mat& image, int bits) {
   CV_Assert(image.channels() == 1 || (image.channels() == 3 && image.depth() == CV_8U));
   OIIO::TypeDesc type;
-  cv::Mat data = image;
+  // `data` must never alias the caller's pixels: the conversions below
+  // would otherwise write into the caller's image.
+  cv::Mat data;
   if (image.channels() == 3) cv::cvtColor(image, data, cv::COLOR_BGR2RGB);  // OpenCV is BGR
+  else data = image;
   switch (image.depth()) {
     case CV_8U: type = OIIO::TypeDesc::UINT8; break;
     case CV_16U:
       type = OIIO::TypeDesc::UINT16;
       if (bits > 0 && bits < 16) {  // scale significant bits to the full 16-bit range
-        image.convertTo(data, CV_16U, 65535.0 / ((1 << bits) - 1));
+        cv::Mat scaled;
+        image.convertTo(scaled, CV_16U, 65535.0 / ((1 << bits) - 1));
+        data = scaled;
       }
       break;
     case CV_32F: type = OIIO::TypeDesc::FLOAT; break;
