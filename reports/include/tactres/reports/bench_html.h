@@ -1,0 +1,20 @@
+#pragma once
+// The bench as one self-contained HTML page (bench.html): accuracy versus
+// time per setting with the Pareto front and the decode floor, where the
+// time goes by stage, the simulator's supersampling sweep, and the summary
+// table. Built on the report's page machinery (report_html.h): the same
+// Chart.js source and options (HtmlReportOptions: Debian's libjs-chart.js,
+// inlined so the page opens offline), the same escaping, and the same
+// data-charts-expected / data-charts-rendered markers on <body>.
+
+#include <string>
+
+#include "tactres/reports/bench.h"
+#include "tactres/reports/report_html.h"
+
+namespace tactres {
+
+// Throws std::runtime_error naming the path when Chart.js cannot be read.
+std::string render_bench_html(const BenchResult& result, const HtmlReportOptions& options);
+
+}  // namespace tactres
