@@ -1,5 +1,6 @@
 #include "tactres/metrology/criterion.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -71,6 +72,17 @@ Limit find_limit(const std::vector<MPoint>& points, const Criterion& c) {
         std::hypot(x->df_dm0 * last.m_sigma, x->df_dm1 * next.m_sigma);
   }
   return L;
+}
+
+Limits find_limits(const std::vector<OrientedPoint>& points, const Criterion& c) {
+  auto one = [&](BarOrientation o) {
+    std::vector<MPoint> pts;
+    for (const OrientedPoint& p : points)
+      if (p.orientation == o) pts.push_back(p.point);
+    std::sort(pts.begin(), pts.end(), [](const MPoint& a, const MPoint& b) { return a.lp_per_mm < b.lp_per_mm; });
+    return find_limit(pts, c);
+  };
+  return {one(BarOrientation::horizontal_bars), one(BarOrientation::vertical_bars)};
 }
 
 nlohmann::json limit_to_json(const Limit& l) {

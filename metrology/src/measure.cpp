@@ -39,28 +39,27 @@ Preset preset_from_string(const std::string& s) {
 }
 
 MeasureOptions MeasureOptions::for_preset(Preset p) {
+  // What each preset buys (README, "Presets"; figures from `tactres bench`):
+  // fast: half-pixel bins, Gaussian PSF, a light pose model; precise:
+  // eighth-pixel bins and a finely sampled disc outline in the pose model.
+  struct Settings {
+    double bin_px;
+    bool fit_psf_shape;
+    int pose_boundary_points;
+    double max_bins_per_bar;
+  };
+  static constexpr Settings kSettings[] = {
+      {0.5, false, 16, 6},     // fast
+      {0.25, true, 32, 8},     // balanced
+      {0.125, true, 96, 16},   // precise
+  };
+  const Settings& s = kSettings[static_cast<int>(p)];
   MeasureOptions o;
   o.preset = p;
-  switch (p) {
-    case Preset::fast:  // coarse bins, Gaussian PSF, light pose model
-      o.sampling.bin_px = 0.5;
-      o.fit_psf_shape = false;
-      o.pose_boundary_points = 16;
-      o.max_bins_per_bar = 6;
-      break;
-    case Preset::balanced:
-      o.sampling.bin_px = 0.25;
-      o.fit_psf_shape = true;
-      o.pose_boundary_points = 32;
-      o.max_bins_per_bar = 8;
-      break;
-    case Preset::precise:
-      o.sampling.bin_px = 0.125;
-      o.fit_psf_shape = true;
-      o.pose_boundary_points = 96;
-      o.max_bins_per_bar = 16;
-      break;
-  }
+  o.sampling.bin_px = s.bin_px;
+  o.fit_psf_shape = s.fit_psf_shape;
+  o.pose_boundary_points = s.pose_boundary_points;
+  o.max_bins_per_bar = s.max_bins_per_bar;
   return o;
 }
 
@@ -135,7 +134,16 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   }
 
   auto t = Clock::now();
-  M.fiducials = find_fiducials(filled_for_detection(lum), layout);
+  const cv::Mat detection_image = filled_for_detection(lum);
+  M.fiducials = find_fiducials(detection_image, layout);
+  if (!M.fiducials.found && camera && !camera->is_pinhole()) {
+    // A strongly distorting lens bends the disc pattern away from a plane
+    // homography; the pose fit models the lens, so the search may be laxer.
+    FiducialSearchOptions lax;
+    lax.max_fit_error_frac = 0.08;
+    FiducialSearchResult retry = find_fiducials(detection_image, layout, lax);
+    if (retry.found) M.fiducials = retry;
+  }
   M.stage_seconds.push_back({"locate_fiducials", since(t)});
   if (!M.fiducials.found) {
     M.problem = M.fiducials.problem.empty() ? "no target found" : M.fiducials.problem;
@@ -181,11 +189,9 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   const ArtworkIndex index(layout.artwork, 0.0);
   const double clip_level = image.saturation_level;
 
-  if (const auto pj = view.project_with_jacobian({0.5 * layout.width_mm, 0.5 * layout.height_mm})) {
-    const auto& J = pj->second;
-    M.nyquist_h_lp_per_mm = 0.5 * std::hypot(J[1], J[3]);
-    M.nyquist_v_lp_per_mm = 0.5 * std::hypot(J[0], J[2]);
-  }
+  const TargetView::Nyquist nyq = view.nyquist({0.5 * layout.width_mm, 0.5 * layout.height_mm});
+  M.nyquist_h_lp_per_mm = nyq.horizontal_bars_lp_per_mm;
+  M.nyquist_v_lp_per_mm = nyq.vertical_bars_lp_per_mm;
 
   // Reference patch: the contrast scale per direction, and the signature
   // (printed bars vs relief through a gel) when it is not given.
@@ -279,13 +285,9 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     auto ts = Clock::now();
     ProfileSamplingOptions so = options.sampling;
     const Strip strip = element_strip(e, so);
-    if (const auto pj = view.project_with_jacobian(strip.center_mm)) {
-      const auto& J = pj->second;
-      const double px_per_mm = across_x ? std::hypot(J[0], J[2]) : std::hypot(J[1], J[3]);
-      r.px_per_bar = e.bar_width_mm * px_per_mm;
-      // Coarse elements need no quarter-pixel bins: cap the bins per bar.
-      so.bin_px = std::max(so.bin_px, r.px_per_bar / options.max_bins_per_bar);
-    }
+    r.px_per_bar = e.bar_width_mm * view.px_per_mm(strip.center_mm, across_x);
+    // Coarse elements need no quarter-pixel bins: cap the bins per bar.
+    so.bin_px = std::max(so.bin_px, r.px_per_bar / options.max_bins_per_bar);
     const SampledProfile sp = sample_strip(lum, view, layout, index, strip, so, clip_level);
     sample_s += since(ts);
     r.outline_px = sp.outline_px;
@@ -343,14 +345,12 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
 
   // Decide.
   t = Clock::now();
-  for (BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
-    std::vector<MPoint> pts;
-    for (const ElementResult& r : M.elements)
-      if (r.orientation == o)
-        pts.push_back({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok});
-    std::sort(pts.begin(), pts.end(), [](const MPoint& a, const MPoint& b) { return a.lp_per_mm < b.lp_per_mm; });
-    (o == BarOrientation::horizontal_bars ? M.horizontal : M.vertical) = find_limit(pts, options.criterion);
-  }
+  std::vector<OrientedPoint> pts;
+  for (const ElementResult& r : M.elements)
+    pts.push_back({r.orientation, {r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok}});
+  const Limits limits = find_limits(pts, options.criterion);
+  M.horizontal = limits.horizontal;
+  M.vertical = limits.vertical;
   for (ElementResult& r : M.elements)
     r.resolved = r.status == ElementStatus::ok &&
                  is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, options.criterion);

@@ -100,13 +100,11 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
     }
   out.in_view = true;
   out.outline_px = {px[0], px[n - 1], px[n * n - 1], px[n * (n - 1)]};
-  const auto pj = view.project_with_jacobian(s.center_mm);
-  if (!pj) {
+  out.px_per_mm_across = view.px_per_mm(s.center_mm, s.across_x);
+  if (!(out.px_per_mm_across > 0)) {
     out.in_view = false;
     return out;
   }
-  const auto& J = pj->second;
-  out.px_per_mm_across = s.across_x ? std::hypot(J[0], J[2]) : std::hypot(J[1], J[3]);
 
   // Quadratic map in centred pixel coordinates, fitted by least squares.
   const Vec2 pc = px[n * n / 2];

@@ -79,9 +79,7 @@ Truth compute_truth(const Scene& scene, const TargetLayout& layout, const Camera
     const double ix = (J[3] * kx - J[2] * ky) / det;
     const double iy = (-J[1] * kx + J[0] * ky) / det;
     const double nu_px = std::hypot(ix, iy);
-    // px per mm along u: |J e_u|
-    const double px_per_mm = horizontal ? std::hypot(J[1], J[3]) : std::hypot(J[0], J[2]);
-    te.px_per_bar = e.bar_width_mm * px_per_mm;
+    te.px_per_bar = e.bar_width_mm * view.px_per_mm(e.extent_mm().center_mm(), !horizontal);
 
     double m = sinc(ix) * sinc(iy);
     if (psf) m *= psf_mtf(*psf, nu_px);
@@ -96,22 +94,18 @@ Truth compute_truth(const Scene& scene, const TargetLayout& layout, const Camera
     t.elements.push_back(te);
   }
 
-  for (BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
-    std::vector<MPoint> pts;
-    for (const TruthElement& te : t.elements)
-      if (te.orientation == o) pts.push_back({te.group, te.element, te.lp_per_mm, te.m, 0.0, te.in_view});
-    std::sort(pts.begin(), pts.end(), [](const MPoint& a, const MPoint& b) { return a.lp_per_mm < b.lp_per_mm; });
-    Criterion c = scene.criterion;
-    c.significance_z = 0;  // the truth is exact
-    (o == BarOrientation::horizontal_bars ? t.horizontal : t.vertical) = find_limit(pts, c);
-  }
+  std::vector<OrientedPoint> pts;
+  for (const TruthElement& te : t.elements)
+    pts.push_back({te.orientation, {te.group, te.element, te.lp_per_mm, te.m, 0.0, te.in_view}});
+  Criterion exact = scene.criterion;
+  exact.significance_z = 0;  // the truth is exact
+  const Limits limits = find_limits(pts, exact);
+  t.horizontal = limits.horizontal;
+  t.vertical = limits.vertical;
 
-  // Sampling (Nyquist) limit at the target centre: 0.5 cycles/px.
-  if (const auto pj = view.project_with_jacobian({0.5 * layout.width_mm, 0.5 * layout.height_mm})) {
-    const auto& J = pj->second;
-    t.nyquist_h_lp_per_mm = 0.5 * std::hypot(J[1], J[3]);
-    t.nyquist_v_lp_per_mm = 0.5 * std::hypot(J[0], J[2]);
-  }
+  const TargetView::Nyquist nyq = view.nyquist({0.5 * layout.width_mm, 0.5 * layout.height_mm});
+  t.nyquist_h_lp_per_mm = nyq.horizontal_bars_lp_per_mm;
+  t.nyquist_v_lp_per_mm = nyq.vertical_bars_lp_per_mm;
   return t;
 }
 

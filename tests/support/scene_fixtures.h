@@ -3,6 +3,8 @@
 // target, an example camera, a pose in view terms, and a list of effects.
 // Rendering goes through the real renderer and the real image files.
 
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <string>

@@ -14,6 +14,8 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "tactres/targets/layout.h"
+
 namespace tactres {
 
 struct Criterion {
@@ -48,6 +50,16 @@ bool is_resolved(const MPoint& p, const Criterion& c);
 
 // `points` must be sorted by ascending lp_per_mm.
 Limit find_limit(const std::vector<MPoint>& points, const Criterion& c);
+
+// Both orientations' limits from one list of elements in any order.
+struct OrientedPoint {
+  BarOrientation orientation;
+  MPoint point;
+};
+struct Limits {
+  Limit horizontal, vertical;
+};
+Limits find_limits(const std::vector<OrientedPoint>& points, const Criterion& c);
 
 // {"resolved_any", "group", "element", "lp_per_mm", "interpolated_lp_per_mm",
 //  "uncertainty_lp_per_mm", "beyond_finest"}; absent values are null, never NaN.

@@ -33,6 +33,16 @@ class TargetView {
   // the ray misses the plane (parallel or behind).
   std::vector<std::optional<Vec2>> target_from_pixels(std::span<const Vec2> px) const;
 
+  // Image scale at a target point along target x (across vertical bars) or
+  // y (across horizontal bars), in pixels per mm; 0 if not projectable.
+  double px_per_mm(Vec2 target_mm, bool along_x) const;
+  // The camera's sampling limit at a target point for bars resolving detail
+  // along y (horizontal bars) and along x (vertical bars): 0.5 cycles/px.
+  struct Nyquist {
+    double horizontal_bars_lp_per_mm = 0, vertical_bars_lp_per_mm = 0;
+  };
+  Nyquist nyquist(Vec2 target_mm) const;
+
   // Camera on the +z side of the target: a through-gel (mirrored) view.
   bool seen_from_behind() const;
 
