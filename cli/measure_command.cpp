@@ -63,7 +63,6 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   Outcome o;
   o.image = image_path;
   o.design = a.design.empty() || batch ? fs::path(image_path).stem().string() : a.design;
-  if (!a.design.empty() && !batch) o.design = a.design;
   const auto t0 = std::chrono::steady_clock::now();
   fs::path json_path, csv_path, overlay_path;
   if (batch || !a.out_dir.empty()) {
@@ -287,9 +286,8 @@ Command measure_command() {
 
               int worst = kExitOk;
               for (const Outcome& o : outcomes) {
-                (o.exit_code == kExitOk || o.exit_code == kExitBelowSpec ? stdout : stderr) == stdout
-                    ? fmt::print("{}\n", o.summary)
-                    : fmt::print(stderr, "{}\n", o.summary);
+                const bool measured = o.exit_code == kExitOk || o.exit_code == kExitBelowSpec;
+                fmt::print(measured ? stdout : stderr, "{}\n", o.summary);
                 worst = std::max(worst, o.exit_code);
               }
               if (!a->junit.empty()) write_file_atomically(a->junit, junit_xml(outcomes));
