@@ -268,7 +268,8 @@ struct Blob {
   double area = 0;  // full-resolution px^2
   double residual = 0;
   double axis_ratio = 1;
-  int contour = -1;  // index into Detection::contours[polarity]
+  int contour = -1;   // index into Detection::contours[polarity]
+  int contour2 = -1;  // a shaded disc's other crescent, when apart
   double pixel = 1;  // detection pixel size, full-resolution px
 };
 
@@ -304,6 +305,33 @@ std::vector<float> sample_pixels(const cv::Mat& m, int target_count) {
   return v;
 }
 
+// Per-thread buffers for the detection-scale images. Fresh image-sized
+// buffers each call cost more in page faults (zeroed pages, memory-cgroup
+// accounting) than the arithmetic on them, several ms per call: kept
+// between calls, ~9 MB per thread for a 1280x720 capture's coarse pass
+// (full-resolution buffers are released after each call).
+struct Workspace {
+  cv::Mat img;                                          // the detection-scale copy
+  cv::Mat log_img, log_mean, n8, otsu_scratch;          // normalise()
+  cv::Mat fine, bg, small, thr_small, thr, mag, patched;  // relief_mask()
+  cv::Mat edges, relief, count, closed;                 // 8-bit masks
+  std::array<cv::Mat*, 15> all() {
+    return {&img, &log_img, &log_mean, &n8, &otsu_scratch, &fine, &bg, &small,
+            &thr_small, &thr, &mag, &patched, &edges, &relief, &count};
+  }
+  // Releases the buffers of more than max_pixels elements.
+  void trim(size_t max_pixels) {
+    for (cv::Mat* m : all())
+      if (m->total() > max_pixels) m->release();
+    if (closed.total() > max_pixels) closed.release();
+  }
+};
+
+Workspace& workspace() {
+  thread_local Workspace w;
+  return w;
+}
+
 // A background-normalised copy of the image at one detection scale.
 struct Normalised {
   bool blank = true;
@@ -314,14 +342,8 @@ struct Normalised {
   double noise = 0;  // robust standard deviation of n
 };
 
-Normalised normalise(const cv::Mat& lum, int scale) {
+Normalised normalise(const cv::Mat& img) {
   Normalised out;
-  cv::Mat img;
-  if (scale == 1)
-    img = lum;
-  else
-    cv::resize(lum, img, cv::Size(lum.cols / scale, lum.rows / scale), 0, 0, cv::INTER_AREA);
-
   std::vector<float> s = sample_pixels(img, 5000);
   const double lo = percentile_of(s, 0.005), hi = percentile_of(s, 0.995);
   if (!(hi - lo > 1e-12 * std::max(1.0, std::abs(hi)))) return out;  // blank image
@@ -330,9 +352,10 @@ Normalised normalise(const cv::Mat& lum, int scale) {
   // symmetric around 0. The offset keeps a dark ground's noise from exploding.
   const float base = static_cast<float>(std::min(lo, 0.0));
   const float eps = static_cast<float>(0.01 * (hi - base));
-  // One buffer, transformed in place: full-resolution temporaries cost more
-  // in page faults than in arithmetic.
-  cv::Mat L(img.size(), CV_32F);
+  // One buffer, transformed in place (see Workspace).
+  Workspace& ws = workspace();
+  cv::Mat& L = ws.log_img;
+  L.create(img.size(), CV_32F);
   for (int y = 0; y < img.rows; ++y) {
     const float* src = img.ptr<float>(y);
     float* dst = L.ptr<float>(y);
@@ -343,7 +366,7 @@ Normalised normalise(const cv::Mat& lum, int scale) {
   // fills the image is ~6 % of its height across.
   int k = static_cast<int>(0.2 * std::min(img.cols, img.rows)) | 1;
   k = std::max(k, 15);
-  cv::Mat B;
+  cv::Mat& B = ws.log_mean;
   cv::blur(L, B, cv::Size(k, k), cv::Point(-1, -1), cv::BORDER_REFLECT);
   cv::subtract(L, B, L);
   out.n = L;
@@ -351,42 +374,189 @@ Normalised normalise(const cv::Mat& lum, int scale) {
   for (float& x : an) x = std::abs(x);
   out.sn = std::max(percentile_of(an, 0.998), 0.05);
   out.noise = 1.4826 * percentile_of(an, 0.5);  // most pixels are ground
-  out.n.convertTo(out.n8, CV_8U, 127.5 / out.sn, 127.5);
+  out.n.convertTo(ws.n8, CV_8U, 127.5 / out.sn, 127.5);
+  out.n8 = ws.n8;
   // Nothing stands out of the noise (a blank or defocused view): thresholds
   // would only cut the noise into countless specks.
   if (out.sn < 6 * out.noise) return out;
-  cv::Mat scratch;
-  out.otsu = cv::threshold(out.n8, scratch, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+  out.otsu =
+      cv::threshold(out.n8, ws.otsu_scratch, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
   out.blank = false;
   return out;
 }
 
-// Thresholds the normalised image for one mode (dark, light or shaded
-// discs) and keeps the elliptical blobs, in `det`.
-void detect_mode(const Normalised& nz, int pol, const FiducialSearchOptions& o, Detection& det) {
-  if (nz.blank) return;
+// Where a relief seen through a gel shows its edges. Under a directional
+// light (linearised Lambert) the image is proportional to the surface slope
+// along the light, so a raised disc shows only a thin light and a thin dark
+// crescent on a ground that a strongly non-uniform illumination (diffuser
+// spot, vignetting, hot spots) makes vary far more than the crescents do.
+// A global normalisation (normalise() above) cannot threshold that: its
+// noise is that of the darkest corners. Here the deviation from a local
+// background (a band-pass: edges ~1-3 px wide pass, illumination does not)
+// is tested against the noise expected AT THAT BACKGROUND LEVEL, measured
+// from the image itself (shot noise grows with the level, read noise does
+// not). Both signs count: light and dark crescents alike, and rings.
+struct ReliefMask {
+  bool blank = true;
+  cv::Mat mask;  // CV_8U, 255 where the deviation is significant
+};
+
+// A smooth background at ~4 px: the mean over 4x4 blocks, a 3x3 box on
+// that grid, bilinear back up (~4 px Gaussian overall, and ~3x cheaper than
+// two 9x9 boxes at full size). `small` receives the block grid.
+void smooth_background(const cv::Mat& img, cv::Mat& small, cv::Mat& bg) {
+  const cv::Size s((img.cols + 3) / 4, (img.rows + 3) / 4);
+  cv::resize(img, small, s, 0, 0, cv::INTER_AREA);
+  cv::blur(small, small, cv::Size(3, 3), cv::Point(-1, -1), cv::BORDER_REFLECT);
+  cv::resize(small, bg, img.size(), 0, 0, cv::INTER_LINEAR);
+}
+
+ReliefMask relief_mask(const cv::Mat& img) {
+  ReliefMask out;
+  if (std::min(img.cols, img.rows) < 16) return out;
+  // Slight smoothing (3x3 binomial), about the width of a blurred edge's
+  // slope: it halves the noise and keeps the crescents. The background is
+  // wide against a crescent, narrow against any illumination feature.
+  Workspace& ws = workspace();
+  cv::Mat &fine = ws.fine, &bg = ws.bg, &small = ws.small;
+  cv::GaussianBlur(img, fine, cv::Size(3, 3), 0, 0, cv::BORDER_REFLECT);
+  smooth_background(img, small, bg);
+
+  // Noise versus background level, from a sample: binned by level, and in
+  // each bin a low quantile of |fine - bg| (most pixels are flat ground;
+  // edges sit in the upper tail). q25 of |N(0, s)| is 0.3186 s.
+  double lo = kInf, hi = -kInf;
+  for (int y = 0; y < small.rows; ++y) {
+    const float* p = small.ptr<float>(y);
+    for (int x = 0; x < small.cols; ++x) {
+      lo = std::min(lo, double(p[x]));
+      hi = std::max(hi, double(p[x]));
+    }
+  }
+  if (!(hi - lo > 1e-12 * std::max(1.0, std::abs(hi)))) return out;  // blank image
+  constexpr int kBins = 16;
+  std::array<std::vector<float>, kBins> bins;
+  std::array<double, kBins> level_sum{};
+  {
+    const int step = std::max(1, static_cast<int>(std::sqrt(double(img.total()) / 8000)));
+    for (int y = step / 2; y < img.rows; y += step) {
+      const float* pb = bg.ptr<float>(y);
+      const float* pf = fine.ptr<float>(y);
+      for (int x = step / 2; x < img.cols; x += step) {
+        const int k = std::clamp(static_cast<int>((pb[x] - lo) / (hi - lo) * kBins), 0, kBins - 1);
+        bins[k].push_back(std::abs(pf[x] - pb[x]));
+        level_sum[k] += pb[x];
+      }
+    }
+  }
+  // The photon-transfer model var = a + b level (read noise, shot noise),
+  // fitted to the bins weighted by their pixel counts: a bin made mostly of
+  // edges (a level that only occurs beside strong edges, as in a uniformly
+  // lit capture) then cannot raise the threshold at its level.
+  size_t total = 0;
+  for (const auto& bin : bins) total += bin.size();
+  double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (int k = 0; k < kBins; ++k) {
+    if (bins[k].size() < std::max<size_t>(40, total / 50)) continue;
+    const double w = bins[k].size(), x = level_sum[k] / bins[k].size();
+    const double sd = percentile_of(bins[k], 0.25) / 0.3186;
+    sw += w;
+    sx += w * x;
+    sy += w * sd * sd;
+    sxx += w * x * x;
+    sxy += w * x * sd * sd;
+  }
+  if (!(sw > 0)) return out;
+  double var_b = (sw * sxy - sx * sy) / std::max(sw * sxx - sx * sx, 1e-300);
+  double var_a = (sy - var_b * sx) / sw;
+  if (!(var_b > 0)) {
+    var_b = 0;
+    var_a = sy / sw;
+  } else if (var_a < 0) {
+    var_a = 0;
+    var_b = sxy / std::max(sxx, 1e-300);
+  }
+  // Threshold per background level: 4 sigma of the noise, and never below
+  // 2 % of the level (a noise-free render has no noise to set the
+  // threshold, only numerical ripple) nor 0.1 % of the range. Evaluated on
+  // the block grid and brought up like the background (it is as smooth).
+  constexpr double kSigmas = 4.0, kMinContrast = 0.02;
+  const double floor_abs = 1e-3 * (std::abs(hi) + std::abs(lo));
+  auto threshold_at = [&](double g) {
+    const double sd = std::sqrt(std::max(0.0, var_a + var_b * g));
+    return std::max({kSigmas * sd, kMinContrast * std::abs(g), floor_abs});
+  };
+  cv::Mat &thr_small = ws.thr_small, &thr = ws.thr;
+  thr_small.create(small.size(), CV_32F);
+  for (int y = 0; y < small.rows; ++y) {
+    const float* p = small.ptr<float>(y);
+    float* q = thr_small.ptr<float>(y);
+    for (int x = 0; x < small.cols; ++x) q[x] = static_cast<float>(threshold_at(p[x]));
+  }
+  cv::resize(thr_small, thr, img.size(), 0, 0, cv::INTER_LINEAR);
+
+  // A strong edge raises the background around it (by up to ~1/4 of its
+  // peak), so the deviation shows side lobes of the other sign up to ~8 px
+  // either side, which pass the threshold too: a disc's outline would grow
+  // by several pixels and merge with specks around it. So the significant
+  // pixels (and their neighbours) are replaced by the background and the
+  // background is taken again: the lobes drop ~4x, and a linear
+  // illumination ramp is left as it was.
+  cv::Mat &mag = ws.mag, &edges = ws.edges, &patched = ws.patched;
+  cv::absdiff(fine, bg, mag);
+  cv::compare(mag, thr, edges, cv::CMP_GT);
+  cv::dilate(edges, edges, cv::Mat());  // 3x3
+  img.copyTo(patched);
+  bg.copyTo(patched, edges);
+  smooth_background(patched, small, bg);
+  cv::absdiff(fine, bg, mag);
+  // What remains of the lobes (a few % of the edge's peak) can still pass
+  // the noise threshold beside a strong edge: pixels below 15 % of the
+  // strongest deviation within the background's reach (8 px) are left out.
+  // (A disc's rim loses only where it runs within ~10 degrees of the light.)
+  cv::Mat& local_max = patched;  // reused
+  cv::dilate(mag, local_max, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(17, 17)));
+  local_max *= 0.15;
+  cv::max(thr, local_max, thr);
+  cv::compare(mag, thr, ws.relief, cv::CMP_GT);
+  out.mask = ws.relief;
+  out.blank = false;
+  return out;
+}
+
+// Thresholds one mode's image (dark, light or shaded discs) and keeps the
+// elliptical blobs, in `det`. `relief` is used by the shaded mode only.
+void detect_mode(const Normalised& nz, const ReliefMask& relief, int pol,
+                 const FiducialSearchOptions& o, Detection& det) {
+  if (pol == kShaded ? relief.blank : nz.blank) return;
   const int scale = det.scale;
-  const int W = nz.n.cols, H = nz.n.rows;
-  const double sn = nz.sn;
+  const int W = pol == kShaded ? relief.mask.cols : nz.n.cols;
+  const int H = pol == kShaded ? relief.mask.rows : nz.n.rows;
   cv::Mat mask;
   if (pol == kDark) cv::threshold(nz.n8, mask, nz.otsu, 255, cv::THRESH_BINARY_INV);
   if (pol == kLight) cv::threshold(nz.n8, mask, nz.otsu, 255, cv::THRESH_BINARY);
+  // Where Otsu cuts through noise (a capture with no inked marks, e.g. a
+  // relief), the mask is salt and pepper, and thousands of ragged contours
+  // would cost far more than the search: a 3x3 median clears them and
+  // leaves any disc of more than ~2 px radius.
+  if (pol != kShaded) cv::medianBlur(mask, mask, 3);
   if (pol == kShaded) {
-    // Shaded discs: the deviation's magnitude. A disc's two crescents fade
-    // out where its edge runs along the light; a closing about a third of a
-    // large disc's radius (~1 % of the image) joins them into one ring.
-    cv::Mat a = cv::abs(nz.n);
-    cv::GaussianBlur(a, a, cv::Size(0, 0), 1.0);
-    cv::Mat a8;
-    a.convertTo(a8, CV_8U, 255.0 / sn);
-    // Not Otsu: dense fine bars respond more strongly than a disc's edge
-    // where it runs obliquely to the light. A low fixed fraction of the
-    // strongest response, kept above the noise, keeps the crescents whole.
-    const double t_shaded = std::max(0.15 * sn, 5 * nz.noise);
-    cv::threshold(a8, a8, 255.0 * t_shaded / sn, 255, cv::THRESH_BINARY);
+    // A disc's two crescents fade out where its edge runs along the light;
+    // a closing about a third of a large disc's radius (~1 % of the image)
+    // joins them into one ring, whose convex hull is the disc (below).
     const int rk = std::max(2, static_cast<int>(std::lround(0.012 * std::min(W, H))));
+    // Isolated specks (noise, what is left of side lobes) go first, or the
+    // closing would tie them to a disc as spurs: a pixel stays if at least
+    // two of its 8 neighbours are set (thin rims keep theirs).
+    Workspace& ws = workspace();
+    cv::boxFilter(relief.mask, ws.count, CV_16U, cv::Size(3, 3), cv::Point(-1, -1), false,
+                  cv::BORDER_CONSTANT);
+    mask = ws.closed;
+    cv::compare(ws.count, 3 * 255, mask, cv::CMP_GE);
+    ws.closed = mask;
+    cv::bitwise_and(mask, relief.mask, mask);
     cv::morphologyEx(
-        a8, mask, cv::MORPH_CLOSE,
+        mask, mask, cv::MORPH_CLOSE,
         cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * rk + 1, 2 * rk + 1)));
   }
 
@@ -399,18 +569,9 @@ void detect_mode(const Normalised& nz, int pol, const FiducialSearchOptions& o, 
   // contour, wherever it lies (e.g. on a card inside a darker surround), and
   // a ring's outline encloses its hole.
   cv::findContours(mask, all, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
-  for (size_t i = 0; i < all.size(); ++i) {
-    if (hierarchy[i][3] >= 0) continue;  // a hole, not a blob's outline
-    auto& contour = all[i];
-    const cv::Rect rect = cv::boundingRect(contour);
-    const int idx = static_cast<int>(det.contours[pol].size());
-    det.rects[pol].push_back(rect);
-    det.contours[pol].push_back(std::move(contour));
-    const auto& c = det.contours[pol].back();
-    if (c.size() < 8) continue;
-    if (rect.x <= 0 || rect.y <= 0 || rect.x + rect.width >= W || rect.y + rect.height >= H)
-      continue;  // clipped by the frame: its centroid would be wrong
-    if (std::max(rect.width, rect.height) > 2 * r_max) continue;
+  // Tests one outline (a contour, or for shaded discs the points of two)
+  // and keeps it as a blob if it is elliptical enough.
+  auto try_blob = [&](const std::vector<cv::Point>& c, int idx, int idx2) {
     std::vector<cv::Point> hull;
     cv::convexHull(c, hull);
     // A shaded disc's crescents may stay apart at one tip (a "C"): its
@@ -424,21 +585,21 @@ void detect_mode(const Normalised& nz, int pol, const FiducialSearchOptions& o, 
         for (int t = 0; t < steps; ++t)
           dense_hull.push_back({a.x + (e.x - a.x) * t / steps, a.y + (e.y - a.y) * t / steps});
       }
-      if (dense_hull.size() < 8) continue;
+      if (dense_hull.size() < 8) return false;
     }
     const auto& outline = pol == kShaded ? dense_hull : c;
     const cv::Moments mo = cv::moments(pol == kShaded ? hull : c);
     const double A = std::abs(mo.m00);
     // Contour vertices are boundary pixel centres, half a pixel inside the edge.
     const double r_eq = std::sqrt(A / kPi) + 0.5;
-    if (r_eq < 0.8 * r_min || r_eq > r_max) continue;
-    if (pol != kShaded && A < 0.85 * cv::contourArea(hull)) continue;
+    if (r_eq < 0.8 * r_min || r_eq > r_max) return false;
+    if (pol != kShaded && A < 0.85 * cv::contourArea(hull)) return false;
     const Vec2 cen{mo.m10 / mo.m00, mo.m01 / mo.m00};
     Sym2 C{mo.mu20 / mo.m00, mo.mu11 / mo.m00, mo.mu02 / mo.m00};
     const auto [l1, l2] = C.eig();
-    if (!(l2 > 0)) continue;
+    if (!(l2 > 0)) return false;
     const double axis_ratio = std::sqrt(l2 / l1);
-    if (axis_ratio < 0.75 * cos_tilt) continue;
+    if (axis_ratio < 0.75 * cos_tilt) return false;
     // Normalised radius of each outline point in the moment ellipse's
     // metric: constant for an ellipse (under any affine map), 0.87..1.22
     // for any parallelogram (bars, patch, label segments).
@@ -451,7 +612,9 @@ void detect_mode(const Normalised& nz, int pol, const FiducialSearchOptions& o, 
     }
     const double mean = s1 / outline.size();
     const double rel = std::sqrt(std::max(0.0, s2 / outline.size() - mean * mean)) / mean;
-    if (rel > 0.06 + 0.25 / r_eq) continue;
+    // A shaded disc's outline is rougher (crescent tips, what the closing
+    // joined); refine_relief() and the identification check the disc itself.
+    if (rel > (pol == kShaded ? 0.1 : 0.06) + 0.25 / r_eq) return false;
     const double inflate = std::pow(r_eq / (r_eq - 0.5), 2);
     Blob b;
     b.center = {scale * cen.x + 0.5 * (scale - 1), scale * cen.y + 0.5 * (scale - 1)};
@@ -461,8 +624,51 @@ void detect_mode(const Normalised& nz, int pol, const FiducialSearchOptions& o, 
     b.residual = rel;
     b.axis_ratio = axis_ratio;
     b.contour = idx;
+    b.contour2 = idx2;
     b.pixel = scale;
     det.blobs[pol].push_back(b);
+    return true;
+  };
+  // Small shaded outlines: maybe one crescent of a disc whose
+  // other crescent the closing did not reach (a dim disc's crescents fade
+  // over a wide angle). Their centres and sizes, for pairing below.
+  struct Fragment {
+    int idx;
+    Vec2 center;
+    double radius;
+  };
+  std::vector<Fragment> fragments;
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (hierarchy[i][3] >= 0) continue;  // a hole, not a blob's outline
+    auto& contour = all[i];
+    const cv::Rect rect = cv::boundingRect(contour);
+    const int idx = static_cast<int>(det.contours[pol].size());
+    det.rects[pol].push_back(rect);
+    det.contours[pol].push_back(std::move(contour));
+    const auto& c = det.contours[pol].back();
+    if (c.size() < 8) continue;
+    if (rect.x <= 0 || rect.y <= 0 || rect.x + rect.width >= W || rect.y + rect.height >= H)
+      continue;  // clipped by the frame: its centroid would be wrong
+    if (std::max(rect.width, rect.height) > 2 * r_max) continue;
+    try_blob(c, idx, -1);
+    // (One crescent alone can pass as a thick ellipse, off the disc's
+    // centre: every small one is a fragment.)
+    if (pol == kShaded && std::max(rect.width, rect.height) < r_max)
+      fragments.push_back({idx, {rect.x + 0.5 * rect.width, rect.y + 0.5 * rect.height},
+                           0.5 * std::max(rect.width, rect.height)});
+  }
+  // Pairs of fragments close enough to be the two crescents of one disc.
+  if (fragments.size() <= 200) {
+    std::vector<cv::Point> both;
+    for (size_t i = 0; i < fragments.size(); ++i)
+      for (size_t j = i + 1; j < fragments.size(); ++j) {
+        const Fragment &f = fragments[i], &g = fragments[j];
+        if (norm(f.center - g.center) > 1.2 * (f.radius + g.radius) + 2) continue;
+        const auto &cf = det.contours[pol][f.idx], &cg = det.contours[pol][g.idx];
+        both.assign(cf.begin(), cf.end());
+        both.insert(both.end(), cg.begin(), cg.end());
+        try_blob(both, f.idx, g.idx);
+      }
   }
   auto& bl = det.blobs[pol];
   std::sort(bl.begin(), bl.end(),
@@ -473,22 +679,53 @@ void detect_mode(const Normalised& nz, int pol, const FiducialSearchOptions& o, 
 // ---------------------------------------------------------------------------
 // Sub-pixel area centroid at full resolution.
 
+// A disc measured at full resolution. Printed discs and rings
+// (refine_centroid): coverage-weighted moments. Shaded discs
+// (refine_relief): the fitted rim ellipse, as if filled.
 struct Refined {
   bool ok = false;
   Vec2 centroid;
-  double area = 0;  // sum(w), px^2
-  Sym2 cov;         // coverage-weighted second central moments, px^2
+  double area = 0;  // sum(w), px^2; shaded: the rim ellipse's area
+  Sym2 cov;         // second central moments, px^2; shaded: the filled rim ellipse's
   double contrast = 0;
   double ground = 0;  // ground level at the centre
-  // sum((I - g)(x - c)) / sum(|I - g|), px: a shaded disc's light-to-dark
-  // axis (near zero for a uniformly inked disc).
+  // Shaded discs only: sum((I - g)(x - c)) / sum(|I - g|) over the rim, px:
+  // the axis from the dark to the light crescent (near zero for a ring).
   Vec2 dipole;
 };
 
+// Distance (px) from the blob's moment ellipse to the nearest other mark
+// of mode `pol` within `reach_px` of it (infinity if none): the window that
+// measures a disc must not take in another mark's tails.
+double clearance_px(const Blob& blob, const Detection& det, int pol, double reach_px) {
+  const auto [l1, l2] = blob.cov.eig();
+  const double semi_minor = 2 * std::sqrt(l2);
+  const Sym2 Ci = blob.cov.inverse();
+  const double s = det.scale, off = 0.5 * (s - 1);
+  const double reach = 2 * std::sqrt(l1) * (1 + reach_px / semi_minor) + 2 * s;
+  const cv::Rect2d box(blob.center.x - reach, blob.center.y - reach, 2 * reach, 2 * reach);
+  double gap = kInf;
+  const auto& contours = det.contours[pol];
+  for (size_t k = 0; k < contours.size(); ++k) {
+    // Specks of a pixel or two do not pull the centroid measurably.
+    if (static_cast<int>(k) == blob.contour || static_cast<int>(k) == blob.contour2 ||
+        contours[k].size() < 3)
+      continue;
+    const cv::Rect& r = det.rects[pol][k];
+    const cv::Rect2d rf(s * r.x + off - s, s * r.y + off - s, s * r.width + 2 * s,
+                        s * r.height + 2 * s);
+    if ((rf & box).area() <= 0) continue;
+    for (const cv::Point& p : contours[k]) {
+      const Vec2 d{s * p.x + off - blob.center.x, s * p.y + off - blob.center.y};
+      const double e = (std::sqrt(0.25 * Ci.quad(d)) - 1) * semi_minor - 0.5 * s;
+      gap = std::min(gap, e);
+    }
+  }
+  return gap;
+}
+
 Refined refine_centroid(const cv::Mat& lum, const Blob& blob, const Detection& det, int pol) {
   const bool dark = pol == kDark;
-  // Signed deviation from the ground as seen by this mode.
-  auto dev = [pol](double u) { return pol == kShaded ? std::abs(u) : u; };
   Refined out;
   const auto [l1, l2] = blob.cov.eig();
   const double semi_minor = 2 * std::sqrt(l2);
@@ -497,31 +734,13 @@ Refined refine_centroid(const cv::Mat& lum, const Blob& blob, const Detection& d
   double margin = std::clamp(0.4 * semi_minor + 2.0, 3.0, 15.0);
   double ring = std::clamp(0.3 * semi_minor, 2.0, 8.0);
   const Sym2 Ci = blob.cov.inverse();
-  // Normalised radius: 1 on the blob's moment ellipse (a disc of radius R has
-  // covariance R^2/4), and its square (no root in the pixel loops).
+  // Normalised radius squared: 1 on the blob's moment ellipse (a disc of
+  // radius R has covariance R^2/4).
   auto rho2 = [&](Vec2 c, double x, double y) { return 0.25 * Ci.quad({x - c.x, y - c.y}); };
-  auto rho = [&](Vec2 c, double x, double y) { return std::sqrt(rho2(c, x, y)); };
   // Keep window and annulus clear of other marks of the same polarity: their
   // tails would pull the centroid.
   {
-    const double s = det.scale, off = 0.5 * (s - 1);
-    const double reach = 2 * std::sqrt(l1) * (1 + (margin + ring) / semi_minor) + 2 * s;
-    const cv::Rect2d box(blob.center.x - reach, blob.center.y - reach, 2 * reach, 2 * reach);
-    double gap = kInf;
-    const auto& contours = det.contours[pol];
-    for (size_t k = 0; k < contours.size(); ++k) {
-      // Specks of a pixel or two do not pull the centroid measurably.
-      if (static_cast<int>(k) == blob.contour || contours[k].size() < 3) continue;
-      const cv::Rect& r = det.rects[pol][k];
-      const cv::Rect2d rf(s * r.x + off - s, s * r.y + off - s, s * r.width + 2 * s,
-                          s * r.height + 2 * s);
-      if ((rf & box).area() <= 0) continue;
-      for (const cv::Point& p : contours[k]) {
-        const double e =
-            (rho(blob.center, s * p.x + off, s * p.y + off) - 1) * semi_minor - 0.5 * s;
-        gap = std::min(gap, e);
-      }
-    }
+    const double gap = clearance_px(blob, det, pol, margin + ring);
     if (gap < kInf) {
       margin = std::min(margin, 0.4 * gap);
       ring = std::min(ring, std::max(1.5, 0.3 * gap));
@@ -605,7 +824,7 @@ Refined refine_centroid(const cv::Mat& lum, const Blob& blob, const Detection& d
       // only clips noise and blurred small discs stay linear.
       tmp.clear();
       for (const auto& p : win)
-        if (p[3] <= 1.0) tmp.push_back(static_cast<float>(dev(p[2] - ground(p[0], p[1]))));
+        if (p[3] <= 1.0) tmp.push_back(static_cast<float>(p[2] - ground(p[0], p[1])));
       if (tmp.size() < 5) return out;
       const double delta0 = percentile_of(tmp, dark ? 0.02 : 0.98);
       // Illumination scales ink and ground alike: where the ground is well
@@ -619,14 +838,13 @@ Refined refine_centroid(const cv::Mat& lum, const Blob& blob, const Detection& d
           if (p[3] <= 1.0) {
             const double gr = ground(p[0], p[1]);
             if (!(gr > 0)) return out;
-            tmp.push_back(static_cast<float>(dev((p[2] - gr) * g[0] / gr)));
+            tmp.push_back(static_cast<float>((p[2] - gr) * g[0] / gr));
           }
         delta = percentile_of(tmp, dark ? 0.02 : 0.98);
       }
       if ((dark ? -delta : delta) < std::max(5 * sigma, 1e-12 * std::abs(g[0]))) return out;
     }
     double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
-    double su = 0, sus = 0, sux = 0, suy = 0;  // |signed deviation|, and its moments
     for (const auto& p : win) {
       const double gr = ground(p[0], p[1]);
       double u = p[2] - gr;
@@ -636,12 +854,6 @@ Refined refine_centroid(const cv::Mat& lum, const Blob& blob, const Detection& d
       }
       // Moments about the current centre (no cancellation far from 0).
       const double dx = p[0] - c.x, dy = p[1] - c.y;
-      const double us = std::clamp(u / std::abs(delta), -1.0, 1.0);
-      su += std::abs(us);
-      sus += us;
-      sux += us * dx;
-      suy += us * dy;
-      u = dev(u);
       const double wgt = std::clamp(u / delta, 0.0, 1.0);
       sw += wgt;
       sx += wgt * dx;
@@ -654,8 +866,6 @@ Refined refine_centroid(const cv::Mat& lum, const Blob& blob, const Detection& d
     const Vec2 d1{sx / sw, sy / sw};
     const Vec2 cn = c + d1;
     out.cov = {sxx / sw - d1.x * d1.x, sxy / sw - d1.x * d1.y, syy / sw - d1.y * d1.y};
-    // About the new centre: sum(us (x - cn)) = sum(us (x - c)) - d1 sum(us).
-    if (su > 0) out.dipole = (1.0 / su) * Vec2{sux - d1.x * sus, suy - d1.y * sus};
     if (norm(cn - blob.center) > 0.5 * semi_minor + 1) return out;  // wandered off
     const double step = norm(d1);
     c = cn;
@@ -666,6 +876,292 @@ Refined refine_centroid(const cv::Mat& lum, const Blob& blob, const Detection& d
   out.ok = true;
   out.centroid = c;
   out.ground = ground(c.x, c.y);
+  return out;
+}
+
+// Bilinear interpolation; (x, y) must lie in [0, cols-1] x [0, rows-1].
+inline double bilinear(const cv::Mat& m, double x, double y) {
+  const int x0 = std::min(static_cast<int>(x), m.cols - 2);
+  const int y0 = std::min(static_cast<int>(y), m.rows - 2);
+  const double fx = x - x0, fy = y - y0;
+  const float* r0 = m.ptr<float>(y0);
+  const float* r1 = m.ptr<float>(y0 + 1);
+  return (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
+         fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+}
+
+// Sub-pixel centre of a relief disc seen through a gel: a thin outline (a
+// light and a dark crescent under a directional light; a ring under a
+// diffuse one) on a smoothly lit ground.
+//
+// Weighting the outline's pixels by |I - ground| is biased: under full
+// Lambert shading the dark crescent is stronger and more concentrated than
+// the light one (a slope s dims the ground by s cos(el) + s^2 sin(el) / 2),
+// and under perspective the near side's rim is wider. What stays symmetric
+// is WHERE the rim is: across the edge, |I - ground| is a bump centred on
+// the edge whatever its height (any function of the edge's slope profile,
+// which the gel and the optics blur symmetrically). So: along rays from the
+// current centre, the bump's centroid gives a point of the disc's edge;
+// a weighted conic through those points is the disc's image ellipse, and
+// its centre is the projected disc's area centroid (exact for a projective
+// view: the image of a circle is an ellipse). Iterated until the centre
+// settles; each ray's window is re-centred on the current ellipse, so a
+// bump cut by the window's end is pulled back on the next pass.
+//
+// The ground is a quadratic fitted to the disc's flat top and an annulus
+// around it (relief tops are flat, so they shade like the ground), robustly.
+// Deviations are divided by the ground's relative level: a multiplicative
+// illumination gradient would otherwise weight one side's rim more.
+Refined refine_relief(const cv::Mat& lum, const Blob& blob, const Detection& det) {
+  Refined out;
+  const auto [l1, l2] = blob.cov.eig();
+  const double a_out = 2 * std::sqrt(l1), b_out = 2 * std::sqrt(l2);  // outline semi-axes
+  if (!(b_out >= 2.5)) return out;
+  const Sym2 Ci = blob.cov.inverse();
+  const Sym2 S_out{0.25 * Ci.xx, 0.25 * Ci.xy, 0.25 * Ci.yy};  // x^T S x = 1 on the outline
+  const Vec2 c0 = blob.center;
+  double margin = std::clamp(0.5 * b_out, 4.0, 12.0);
+  {
+    const double gap = clearance_px(blob, det, kShaded, margin);
+    if (gap < kInf) margin = std::min(margin, 0.8 * gap);
+    if (margin < 2.5) return out;
+  }
+  // The outline is the rim's outer edge at the detection threshold (closed,
+  // hull); the rim's middle lies ~2 px inside it, its inner edge up to ~6 px.
+  const double rho_o = 1 + margin / b_out;
+  const double band_in = 1 - std::min(7.0, 0.6 * b_out) / b_out, band_out = 1 + 1.5 / b_out;
+  const double ex = rho_o * 2 * std::sqrt(blob.cov.xx), ey = rho_o * 2 * std::sqrt(blob.cov.yy);
+  if (c0.x - ex < 1 || c0.y - ey < 1 || c0.x + ex > lum.cols - 2 || c0.y + ey > lum.rows - 2)
+    return out;  // clipped by the frame
+
+  // Ground: quadratic (plane if the flat top is too small to pin the
+  // curvature) in coordinates scaled by the outline's size.
+  struct Px {
+    double x, y, v;
+  };
+  std::vector<Px> gpx;
+  int inner = 0;
+  {
+    const int x0 = static_cast<int>(std::floor(c0.x - ex)), x1 = static_cast<int>(std::ceil(c0.x + ex));
+    const int y0 = static_cast<int>(std::floor(c0.y - ey)), y1 = static_cast<int>(std::ceil(c0.y + ey));
+    for (int y = y0; y <= y1; ++y) {
+      const float* row = lum.ptr<float>(y);
+      for (int x = x0; x <= x1; ++x) {
+        const Vec2 d{(x - c0.x) / a_out, (y - c0.y) / a_out};
+        const double r = std::sqrt(S_out.quad({x - c0.x, y - c0.y}));
+        if (r > rho_o || (r > band_in && r < band_out)) continue;
+        inner += r <= band_in;
+        gpx.push_back({d.x, d.y, double(row[x])});
+      }
+    }
+  }
+  const int nf = inner >= 20 ? 6 : 3;
+  if (static_cast<int>(gpx.size()) < 4 * nf + 8) return out;
+  std::array<double, 6> gc{};
+  double g_sigma = 0;
+  {
+    // Least squares, then again without the outliers (3.5 robust sigmas:
+    // what is left of the rim, other marks).
+    std::vector<char> keep(gpx.size(), 1);
+    std::vector<float> res;
+    std::vector<double> e(gpx.size());
+    for (int pass = 0; pass < 2; ++pass) {
+      double M[21] = {}, b[6] = {};  // upper triangle, row by row
+      for (size_t i = 0; i < gpx.size(); ++i) {
+        if (!keep[i]) continue;
+        const Px& p = gpx[i];
+        const double f[6] = {1, p.x, p.y, p.x * p.x, p.x * p.y, p.y * p.y};
+        for (int r = 0, t = 0; r < nf; ++r) {
+          b[r] += f[r] * p.v;
+          for (int q = r; q < nf; ++q) M[t++] += f[r] * f[q];
+        }
+      }
+      cv::Matx66d Mm = cv::Matx66d::eye();  // unused terms stay 0
+      for (int r = 0, t = 0; r < nf; ++r)
+        for (int q = r; q < nf; ++q) Mm(r, q) = Mm(q, r) = M[t++];
+      cv::Vec6d sol;
+      if (!cv::solve(Mm, cv::Vec6d(b), sol, cv::DECOMP_CHOLESKY)) return out;
+      for (int r = 0; r < 6; ++r) gc[r] = sol[r];
+      res.clear();
+      for (size_t i = 0; i < gpx.size(); ++i) {
+        const Px& p = gpx[i];
+        e[i] = p.v - (gc[0] + gc[1] * p.x + gc[2] * p.y + gc[3] * p.x * p.x +
+                      gc[4] * p.x * p.y + gc[5] * p.y * p.y);
+        if (keep[i]) res.push_back(static_cast<float>(std::abs(e[i])));
+      }
+      g_sigma = 1.4826 * percentile_of(res, 0.5);
+      for (size_t i = 0; i < gpx.size(); ++i) keep[i] = std::abs(e[i]) <= 3.5 * g_sigma + 1e-30;
+    }
+  }
+  auto ground = [&](double x, double y) {
+    const double u = (x - c0.x) / a_out, v = (y - c0.y) / a_out;
+    return gc[0] + gc[1] * u + gc[2] * v + gc[3] * u * u + gc[4] * u * v + gc[5] * v * v;
+  };
+  const double g0 = gc[0];
+  // Illumination scales rim and ground alike where the ground is well above
+  // zero (see refine_centroid).
+  bool multiplicative = g0 > 0;
+  for (double sx : {-1.0, 1.0})
+    for (double sy : {-1.0, 1.0})
+      multiplicative = multiplicative && ground(c0.x + sx * ex, c0.y + sy * ey) > 0.2 * g0;
+  // The normalised deviation from the ground on the pixel grid, once, over
+  // the window and a few pixels more (rays may reach a little past it).
+  const int px0 = std::max(0, static_cast<int>(std::floor(c0.x - ex)) - 6);
+  const int py0 = std::max(0, static_cast<int>(std::floor(c0.y - ey)) - 6);
+  const int px1 = std::min(lum.cols - 1, static_cast<int>(std::ceil(c0.x + ex)) + 6);
+  const int py1 = std::min(lum.rows - 1, static_cast<int>(std::ceil(c0.y + ey)) + 6);
+  cv::Mat dev_patch(py1 - py0 + 1, px1 - px0 + 1, CV_32F);
+  for (int y = py0; y <= py1; ++y) {
+    const float* row = lum.ptr<float>(y);
+    float* out_row = dev_patch.ptr<float>(y - py0);
+    for (int x = px0; x <= px1; ++x) {
+      const double g = ground(x, y);
+      const double u = row[x] - g;
+      out_row[x - px0] = static_cast<float>(multiplicative ? u * g0 / std::max(g, 0.05 * g0) : u);
+    }
+  }
+  // NaN outside the patch.
+  auto deviation = [&](double x, double y) {
+    x -= px0;
+    y -= py0;
+    if (!(x >= 0 && y >= 0 && x <= dev_patch.cols - 1 && y <= dev_patch.rows - 1))
+      return std::numeric_limits<double>::quiet_NaN();
+    return bilinear(dev_patch, x, y);
+  };
+  // Soft threshold: noise alone adds weight everywhere in the ray's window,
+  // which would pull each rim point toward the window's middle.
+  const double t = 2 * g_sigma;
+
+  // Where the rim is: the peak of the mean |deviation| over ellipses
+  // concentric with the outline. The outline is only roughly the rim's
+  // outer edge (a strong rim's tails pass the detection threshold farther
+  // out, a closing may add a bridge), so this, not the outline, starts the
+  // fit.
+  double shrink = 1;
+  {
+    constexpr int kBins = 48;
+    std::array<double, kBins> acc{}, cnt{};
+    const int x0 = static_cast<int>(std::floor(c0.x - ex)), x1 = static_cast<int>(std::ceil(c0.x + ex));
+    const int y0 = static_cast<int>(std::floor(c0.y - ey)), y1 = static_cast<int>(std::ceil(c0.y + ey));
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const double r = std::sqrt(S_out.quad({x - c0.x, y - c0.y}));
+        if (r >= rho_o) continue;
+        const int k = static_cast<int>(r / rho_o * kBins);
+        acc[k] += std::abs(deviation(x, y));
+        cnt[k] += 1;
+      }
+    int kp = -1;
+    double best = 0;
+    for (int k = 0; k < kBins; ++k) {
+      if (cnt[k] < 4 || (k + 0.5) * rho_o / kBins < 0.3) continue;  // not the middle
+      if (acc[k] / cnt[k] > best) {
+        best = acc[k] / cnt[k];
+        kp = k;
+      }
+    }
+    if (kp < 0) return out;
+    double sw = 0, swr = 0;
+    for (int k = std::max(0, kp - 2); k <= std::min(kBins - 1, kp + 2); ++k) {
+      if (cnt[k] < 1) continue;
+      const double m = acc[k] / cnt[k];
+      sw += m;
+      swr += m * (k + 0.5) * rho_o / kBins;
+    }
+    shrink = swr / sw;
+  }
+
+  Vec2 c = c0;
+  Sym2 S{S_out.xx / (shrink * shrink), S_out.xy / (shrink * shrink), S_out.yy / (shrink * shrink)};
+  double hw = std::clamp(0.35 * b_out, 2.0, 5.0);  // half-width of each ray's window, px
+  const int n_rays = std::clamp(static_cast<int>(2 * kPi * std::sqrt(a_out * b_out) / 1.5), 24, 256);
+  constexpr double kStep = 0.5;  // px along each ray
+  bool converged = false;
+  double last_step = kInf;
+  std::vector<float> peaks;
+  for (int iter = 0; iter < 12 && !converged; ++iter) {
+    // M maps the unit circle onto the current ellipse.
+    const Sym2 M = S.inv_sqrt();
+    const double scale = std::sqrt(std::sqrt(1 / S.det()));  // sqrt(a b), for conditioning
+    double N[5][5] = {}, rhs[5] = {};
+    double spread = 0, total = 0, sum_abs = 0, w_max = 0;
+    Vec2 dip{};
+    int rays_on = 0;
+    std::vector<double> ray_w(n_rays, 0);
+    peaks.clear();
+    for (int k = 0; k < n_rays; ++k) {
+      const double th = 2 * kPi * k / n_rays;
+      const Vec2 p = M.mul({std::cos(th), std::sin(th)});
+      const double rk = norm(p);
+      const Vec2 e = (1 / rk) * p;
+      const double h = std::min(hw, 0.6 * rk);
+      double sw = 0, swd = 0, swdd = 0, peak = 0;
+      for (double d = -h; d <= h + 1e-9; d += kStep) {
+        const Vec2 q = c + (rk + d) * e;
+        const double u = deviation(q.x, q.y);
+        if (std::isnan(u)) return out;  // the ellipse grew past the window
+        const double w = std::max(std::abs(u) - t, 0.0);
+        sw += w;
+        swd += w * d;
+        swdd += w * d * d;
+        peak = std::max(peak, std::abs(u));
+        sum_abs += std::abs(u);
+        dip = dip + u * ((rk + d) * e);
+      }
+      peaks.push_back(static_cast<float>(peak));
+      if (!(sw > 0)) continue;
+      const double dm = swd / sw;
+      spread += swdd - sw * dm * dm;
+      total += sw;
+      ray_w[k] = sw;
+      w_max = std::max(w_max, sw);
+      const Vec2 x = (1 / scale) * ((rk + dm) * e);
+      const double f[5] = {x.x * x.x, x.x * x.y, x.y * x.y, x.x, x.y};
+      for (int r = 0; r < 5; ++r) {
+        rhs[r] += sw * f[r];
+        for (int q = 0; q < 5; ++q) N[r][q] += sw * f[r] * f[q];
+      }
+    }
+    // The outline must be there on most of its way round (crescents fade
+    // only near the two points where the edge runs along the light).
+    for (double w : ray_w) rays_on += w > 0.1 * w_max;
+    if (!(w_max > 0) || rays_on < 0.4 * n_rays) return out;
+    cv::Matx<double, 5, 5> Nm;
+    cv::Vec<double, 5> bm, sol;
+    for (int r = 0; r < 5; ++r) {
+      bm[r] = rhs[r];
+      for (int q = 0; q < 5; ++q) Nm(r, q) = N[r][q];
+    }
+    if (!cv::solve(Nm, bm, sol, cv::DECOMP_SVD)) return out;
+    const double A = sol[0], B = sol[1], C = sol[2], D = sol[3], E = sol[4];
+    const double det2 = 4 * A * C - B * B;
+    if (!(A > 0 && C > 0 && det2 > 0)) return out;
+    const Vec2 x0{(-2 * C * D + B * E) / det2, (B * D - 2 * A * E) / det2};
+    const double F0 = A * x0.x * x0.x + B * x0.x * x0.y + C * x0.y * x0.y + D * x0.x + E * x0.y - 1;
+    if (!(F0 < 0)) return out;
+    const double k2 = -F0 * scale * scale;
+    const Sym2 S_new{A / k2, 0.5 * B / k2, C / k2};
+    const Vec2 step = scale * x0;
+    // The rim's ellipse stays near the outline's.
+    const auto [s1, s2] = S_new.eig();
+    if (!(s2 > 0) || 1 / std::sqrt(s2) > 1.5 * a_out || 1 / std::sqrt(s1) < 0.3 * b_out) return out;
+    c = c + step;
+    S = S_new;
+    if (norm(c - c0) > 0.5 * b_out + 1) return out;  // wandered off
+    const double sd = std::sqrt(std::max(spread, 0.0) / total);
+    hw = std::clamp(2 * sd + 1, 2.0, std::max(2.0, 0.5 / std::sqrt(s1)));
+    converged = iter >= 2 && norm(step) < 1e-3;
+    last_step = norm(step);
+    out.dipole = (1 / std::max(sum_abs, 1e-300)) * dip;
+  }
+  if (last_step > 0.01) return out;  // still moving: no stable rim
+  out.ok = true;
+  out.centroid = c;
+  const Sym2 Sinv = S.inverse();
+  out.cov = {0.25 * Sinv.xx, 0.25 * Sinv.xy, 0.25 * Sinv.yy};
+  out.area = kPi / std::sqrt(S.det());
+  out.contrast = percentile_of(peaks, 0.9);
+  out.ground = g0;
   return out;
 }
 
@@ -700,7 +1196,8 @@ class RefinedCache {
         r_(det.blobs[pol].size()) {}
   const Refined* get(int b) {
     if (!done_[b]) {
-      r_[b] = refine_centroid(lum_, det_.blobs[pol_][b], det_, pol_);
+      r_[b] = pol_ == kShaded ? refine_relief(lum_, det_.blobs[pol_][b], det_)
+                              : refine_centroid(lum_, det_.blobs[pol_][b], det_, pol_);
       done_[b] = 1;
     }
     return r_[b].ok ? &r_[b] : nullptr;
@@ -841,7 +1338,7 @@ class Identifier {
         if (D == A || D == M || D == B || D == C || !area_ok(D, A) || !area_ok(D, B) ||
             !area_ok(D, C))
           continue;
-        if (norm(blobs_[D].center - dpred) > 0.3 * span) continue;
+        if (norm(blobs_[D].center - dpred) > 0.5 * span) continue;
         if (!spacing_ok(A, D, pat_.a, pat_.d) || !spacing_ok(C, D, pat_.c, pat_.d)) continue;
         std::array<int, 5> cand{};
         cand[pat_.a] = A;
@@ -912,6 +1409,53 @@ class Identifier {
     return std::pair{mu1, mu2};
   }
 
+  // Relief discs (shaded mode): refine_relief() measured each disc's image
+  // ellipse, which must be the projected disc P the map predicts, in size
+  // and shape, to within the tolerances of printed discs. Under one light
+  // every disc shows its light crescent on the same side, so the dipoles
+  // share a direction (perspective turns them a little) and are a good
+  // fraction of the disc's radius; rings (a diffuse light) have none at all.
+  // Texture has them in all directions.
+  std::optional<double> relief_shape_score(const std::array<Sym2, 5>& P,
+                                           const std::array<int, 5>& cand, bool strict) const {
+    const double lens = strict ? 0.0 : 3 * o_.max_fit_error_frac;
+    const double tol_shape = std::log(strict ? 1.25 : 1.4) + lens;
+    Vec2 sum_dir{};
+    int n = 0, rings = 0;
+    for (int k = 0; k < 5; ++k) {
+      if (cand[k] < 0) continue;
+      ++n;
+      const Vec2 d = refined_.get(cand[k])->dipole;
+      const double r_px = 2 * std::sqrt(std::sqrt(P[k].det()));  // sqrt(a b), semi-axes a, b
+      if (norm(d) < 0.15 * r_px) {
+        ++rings;
+        continue;
+      }
+      sum_dir = sum_dir + (1 / norm(d)) * d;
+    }
+    if (rings > 0 && rings < n) return std::nullopt;
+    if (rings == 0) {
+      if (norm(sum_dir) < 1e-12) return std::nullopt;
+      const Vec2 mean_dir = (1 / norm(sum_dir)) * sum_dir;
+      for (int k = 0; k < 5; ++k) {
+        if (cand[k] < 0) continue;
+        const Vec2 d = refined_.get(cand[k])->dipole;
+        if (dot(d, mean_dir) < std::cos(35 * kPi / 180) * norm(d)) return std::nullopt;
+      }
+    }
+    double sum = 0;
+    for (int k = 0; k < 5; ++k) {
+      if (cand[k] < 0) continue;
+      const auto mu = relative_eig(P[k], refined_.get(cand[k])->cov);
+      if (!mu) return std::nullopt;
+      const double dev =
+          std::max(std::abs(std::log(mu->first)), std::abs(std::log(mu->second))) / tol_shape;
+      if (dev > 1) return std::nullopt;
+      sum += dev * dev;
+    }
+    return sum / n;
+  }
+
   // Every matched disc's image must be the disc the map predicts there.
   // Returns the mean squared normalised deviation, or nullopt if any disc is
   // out of tolerance (tighter when `strict`).
@@ -940,6 +1484,7 @@ class Identifier {
       fill += f;
       ++n;
     }
+    if (shaded_) return relief_shape_score(P, cand, strict);
     double sum = 0;
     if (filled) {
       // Printed discs: the coverage moments are those of the projected disc
@@ -984,31 +1529,8 @@ class Identifier {
     // Rings: only the outlines (filled) are comparable. Their size relative
     // to the disc depends on the threshold and the ring's width, so one
     // common factor kappa is fitted; each outline must then match
-    // kappa * P, to within the tolerance plus a detection pixel. A shaded
-    // disc's outline is two crescents closed at their tips: only its size
-    // is checked.
+    // kappa * P, to within the tolerance plus a detection pixel.
     const double tol_shape = std::log(strict ? 1.3 : 1.5);
-    if (shaded_) {
-      // A relief under one light: every disc shows its light crescent on the
-      // same side, so the dipoles share a direction (perspective turns them
-      // a little) and are a good fraction of the disc's radius. Uniform
-      // blobs have none; texture has them in all directions.
-      Vec2 sum_dir{};
-      for (int k = 0; k < 5; ++k) {
-        if (cand[k] < 0) continue;
-        const Vec2 d = refined_.get(cand[k])->dipole;
-        const double r_px = 2 * std::sqrt(std::sqrt(P[k].det()));  // sqrt(a b), semi-axes a, b
-        if (norm(d) < 0.15 * r_px) return std::nullopt;
-        sum_dir = sum_dir + (1 / norm(d)) * d;
-      }
-      if (norm(sum_dir) < 1e-12) return std::nullopt;
-      const Vec2 mean_dir = (1 / norm(sum_dir)) * sum_dir;
-      for (int k = 0; k < 5; ++k) {
-        if (cand[k] < 0) continue;
-        const Vec2 d = refined_.get(cand[k])->dipole;
-        if (dot(d, mean_dir) < std::cos(35 * kPi / 180) * norm(d)) return std::nullopt;
-      }
-    }
     // Outline = the disc grown by a common margin delta (the ring's or
     // crescents' width beyond the edge, at the threshold), fitted.
     double delta = 0, p_min = kInf, p_max = 0, pixel = 1;
@@ -1037,8 +1559,7 @@ class Identifier {
       // One detection pixel on the semi-minor axis, relative.
       const double quant = 2 * b.pixel / (2 * std::sqrt(b.cov.eig().second));
       const double dev =
-          (shaded_ ? 0.5 * std::abs(std::log(mu->first * mu->second))
-                   : std::max(std::abs(std::log(mu->first)), std::abs(std::log(mu->second)))) /
+          std::max(std::abs(std::log(mu->first)), std::abs(std::log(mu->second))) /
           (tol_shape + quant);
       if (dev > 1) return std::nullopt;
       sum += dev * dev;
@@ -1122,6 +1643,22 @@ class Identifier {
     }
     v.n = static_cast<int>(src.size());
     if (v.n < 4 || amax > o_.max_area_ratio * amin) return v;
+    if (v.n == 5) {
+      // First with the blobs' outline centres, a pixel or two off (more for
+      // shaded outlines), so that hopeless hypotheses cost no refinement.
+      std::vector<Vec2> rough;
+      for (int k = 0; k < 5; ++k) rough.push_back(blobs_[cand[k]].center);
+      if (const auto H = fit_homography(src, rough)) {
+        double ss = 0;
+        for (int k = 0; k < 5; ++k) {
+          const Vec2 e = map_point(*H, src[k]) - rough[k];
+          ss += dot(e, e);
+        }
+        const double span = norm(map_point(*H, pat_.p[pat_.b]) - map_point(*H, pat_.p[pat_.a]));
+        const double slack = 0.5 * std::sqrt(amax / kPi) + 2 * blobs_[cand[0]].pixel;
+        if (std::sqrt(ss / 5) > std::max(1.0, o_.max_fit_error_frac * span) + slack) return v;
+      }
+    }
     for (int k = 0; k < 5; ++k) {
       if (cand[k] < 0) continue;
       const Refined* R = refined_.get(cand[k]);
@@ -1236,7 +1773,7 @@ class Identifier {
   const Pattern& pat_;
   const FiducialSearchOptions& o_;
   RefinedCache& refined_;
-  bool shaded_;  // outlines of shaded discs have unreliable shapes
+  bool shaded_;  // relief discs: outlines are rough, the rim fit is what counts
   double cos_tilt_;
   std::set<uint64_t> seen_;
   int max_seen_ = 0;  // most discs of any hypothesis that fit the pattern
@@ -1318,6 +1855,11 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
     throw std::invalid_argument(
         "find_fiducials got non-finite pixels: apply the loader's non-finite policy first");
   const Pattern pat = make_pattern(layout);
+  // The coarse pass's buffers stay for the next call; larger ones go.
+  struct TrimWorkspace {
+    size_t keep;
+    ~TrimWorkspace() { workspace().trim(keep); }
+  } trim{std::max<size_t>(luminance.total() / 4, size_t{1} << 18)};
 
   std::vector<int> scales;
   // Coarse first (fast): a 2x-downsampled copy keeps discs of >= 5 px radius
@@ -1325,8 +1867,8 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
   if (std::min(luminance.cols, luminance.rows) >= 400) scales.push_back(2);
   scales.push_back(1);
   const bool layout_dark = layout.polarity == Polarity::dark_bars_on_light;
-  // The layout's polarity first; shaded (relief under a directional light)
-  // last, as it is the least selective.
+  // The layout's polarity first; shaded (a relief through a gel: crescents
+  // or rings) last, as it is the least selective.
   const std::array<int, 3> pol_order = layout_dark ? std::array<int, 3>{kDark, kLight, kShaded}
                                                    : std::array<int, 3>{kLight, kDark, kShaded};
 
@@ -1334,17 +1876,36 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
   int best_partial = 0;
   bool any_ambiguous = false;
   double best_score = kInf;
-  // Mode by mode, coarse to fine: a printed target with small discs is found
-  // at full resolution before the other polarities are tried.
-  std::vector<std::optional<Normalised>> norms(scales.size());
-  std::vector<Detection> dets(scales.size());
-  for (int pol : pol_order) {
-    for (size_t si = 0; si < scales.size(); ++si) {
-      const int scale = scales[si];
-      if (!norms[si]) norms[si] = normalise(luminance, scale);
-      Detection& det = dets[si];
-      det.scale = scale;
-      detect_mode(*norms[si], pol, options, det);
+  int best_pol = -1;
+  // Scale by scale, every mode on the coarse copy first: whichever way the
+  // discs show, they are usually found there in a few ms, and the costly
+  // full-resolution passes run only for small discs or none found.
+  for (size_t si = 0; si < scales.size(); ++si) {
+    const int scale = scales[si];
+    cv::Mat img;
+    if (scale == 1) {
+      img = luminance;
+    } else {
+      cv::resize(luminance, workspace().img,
+                 cv::Size(luminance.cols / scale, luminance.rows / scale), 0, 0, cv::INTER_AREA);
+      img = workspace().img;
+    }
+    std::optional<Normalised> nz;
+    std::optional<ReliefMask> relief;
+    Detection det;
+    det.scale = scale;
+    for (int pol : pol_order) {
+      // Four discs found in one mode: only that mode may show the fifth
+      // (e.g. at full resolution).
+      if (best.found && pol != best_pol) continue;
+      if (pol == kShaded) {
+        if (!relief) relief = relief_mask(img);
+      } else if (!nz) {
+        nz = normalise(img);
+      }
+      static const Normalised kNone;
+      static const ReliefMask kNoRelief;
+      detect_mode(nz ? *nz : kNone, relief ? *relief : kNoRelief, pol, options, det);
       const auto& blobs = det.blobs[pol];
       RefinedCache refined(luminance, det, pol);
       const Identification id = identify(blobs, pat, options, refined, pol == kShaded);
@@ -1378,7 +1939,10 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
             missing_names(pat, v.cand));
       best = std::move(r);
       best_score = v.score;
+      best_pol = pol;
       if (n == 5) return best;
+    }
+    if (best.found) {
       // The missing disc's area is within max_area_ratio of the found ones';
       // if even the smallest such disc would have been seen at this scale, a
       // finer one will not find it either.
@@ -1388,9 +1952,8 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
       const double r_detectable = std::max(options.min_radius_px, 2.5 * scale);
       if (r_min_found / std::sqrt(options.max_area_ratio) >= r_detectable) return best;
     }
-    // Four discs in this mode: another mode will not show the fifth.
-    if (best.found) return best;
   }
+  if (best.found) return best;
   best = {};
   best.dark_on_light = layout_dark;
   if (best_partial >= 5)

@@ -25,16 +25,42 @@
 // centroid of the projected disc, and it does not move under symmetric blur.
 // That is what fit_pose() (pose.h) predicts for each disc.
 //
-// Rings (a relief seen through a gel) get the same weights, so their
-// centroid is the ring's; shaded discs (light and dark crescents) weight
-// |I - ground|. Both are exact for affine views and approximate the disc's
-// area centroid under perspective.
+// Rings (a relief seen through a gel, shaded by the slope's magnitude) get
+// the same weights, so their centroid is the ring's.
+//
+// Shaded discs: a relief pressed into a gel and lit from one side shows each
+// disc only as a thin light and a thin dark crescent (~2 px wide), on an
+// illumination that varies far more than they do (diffuser spot,
+// vignetting, hot spots). They are found on the deviation from a local
+// background, thresholded against the noise expected at that background's
+// level (measured from the image: read and shot noise), closed into rings
+// (or paired, when a dim disc's crescents stay apart) and filled by their
+// convex hull. The centre is then fitted to WHERE the rim is, not to how
+// bright it is: along rays from the current centre, the centroid of
+// |I - ground| across the rim is a point of the disc's edge (the gel and the
+// optics blur the edge symmetrically, whatever the shading makes of its
+// height), and an ellipse fitted to those points is the disc's image, whose
+// centre is the projected disc's area centroid. It does not depend on the
+// crescents' brightness: |I - ground| weights move toward the stronger
+// crescent (a 2 % imbalance between them moves a 12 px disc's centroid by
+// ~0.15 px; full Lambert shading darkens one side far more than it lights
+// the other: 1.5-4 px), and the mean of the light and dark crescents'
+// centroids depends on how each fades along the rim (0.04 px under
+// linearised, 0.5-1 px under full Lambert shading). Measured on noise-free
+// renders of the example design scenes and variants: the rim fit is within
+// 0.03 px of project_disc_centroid (pose.h); under their sensor noise
+// (~35-40 dB) ~0.01-0.04 px rms. The fitted ellipses must match the discs
+// the pattern's map predicts, and under one light every disc's light
+// crescent lies on the same side.
 //
 // Pixel convention (mrcal's and OpenCV's): the top-left pixel's centre is
 // (0, 0).
 //
-// Cost: ~2.5 ms of one core for a 1280x720 capture with the target found on
-// the 2x-downsampled pass; up to ~20 ms when nothing is found.
+// Cost (one core of a shared, loaded machine, 1280x720): ~2 ms for a
+// printed capture found on the 2x-downsampled pass, ~4.5-5.5 ms for a relief
+// one (every mode is tried on that pass first); ~45 ms when nothing is found
+// (every mode at both scales). Per-thread buffers (~9 MB) are kept between
+// calls: fresh ones cost more in page faults than the arithmetic.
 
 #include <array>
 #include <string>
@@ -99,9 +125,10 @@ struct FiducialSearchResult {
   // Polarity of the found discs: true for dark discs on a lighter ground.
   // Relief targets seen through a gel may show either.
   bool dark_on_light = true;
-  // The discs showed as a light and a dark crescent (a relief under a
-  // directional light); their centroids weight |I - ground|, and
-  // dark_on_light is false.
+  // The discs showed as thin outlines, a light and a dark crescent (a relief
+  // under a directional light) or rings: their centres are fitted to the
+  // rims (see above), area_px is the rim ellipse's area, contrast the rim's
+  // peak |I - ground|, and dark_on_light is false.
   bool shaded = false;
   // Row-major 3x3 homography from target mm (z = 0) to pixels, fitted to the
   // identified disc centroids (an affine map when the 4 found discs include
@@ -117,7 +144,8 @@ struct FiducialSearchResult {
 // Finds the layout's fiducial discs in `luminance` (CV_32FC1, finite values,
 // any scale; linear luminance is best). Tries the layout's polarity first,
 // then the other one (relief targets through a gel show either, often as
-// rings), then shaded discs (light and dark crescents).
+// rings), then shaded discs (light and dark crescents), on the coarse pass
+// and then, if none found all five, at full resolution.
 // Throws std::invalid_argument for an empty or non-CV_32FC1 image, non-finite
 // pixels, invalid options, or a layout whose fiducials are not the 5-disc
 // pattern described above. "Not found" is a result, never an exception.
