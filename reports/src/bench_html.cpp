@@ -1,6 +1,5 @@
 #include "tactres/reports/bench_html.h"
 
-#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <map>
@@ -9,116 +8,37 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "tactres/targets/atomic_file.h"
 
 namespace tactres {
 namespace {
 
 using nlohmann::json;
 
-// The report page's look (report_html.cpp): same palette and card/table
-// style, so that bench.html and report.html read as one family.
+// The bench's own style, after the shared one (html_page.cpp).
 constexpr const char* kBenchCss = R"CSS(
-:root { --ink: #1d2330; --muted: #5b6472; --line: #d9dde3; --bg: #f5f6f8; --card: #fff;
-        --ok: #2e7d32; --bad: #b3261e; --front: #b3261e; }
-* { box-sizing: border-box; }
-html { background: var(--bg); }
-body { margin: 0 auto; max-width: 1240px; padding: 24px 28px 40px; color: var(--ink);
-       font: 14px/1.45 "DejaVu Sans", "Segoe UI", Roboto, "Helvetica Neue", Arial, sans-serif; }
-h1 { font-size: 24px; margin: 0 0 4px; letter-spacing: -0.01em; }
-h2 { font-size: 17px; margin: 0 0 10px; }
-.sub { color: var(--muted); margin: 0 0 18px; }
-section { background: var(--card); border: 1px solid var(--line); border-radius: 8px; padding: 16px 18px;
-          margin: 0 0 18px; }
-.cards { display: grid; grid-template-columns: repeat(auto-fit, minmax(220px, 1fr)); gap: 12px;
-         background: none; border: none; padding: 0; }
-.card { background: var(--card); border: 1px solid var(--line); border-radius: 8px; padding: 12px 14px; }
-.card .k { color: var(--muted); font-size: 12px; text-transform: uppercase; letter-spacing: 0.04em; }
-.card .val { font-size: 20px; font-weight: 600; margin-top: 2px; }
-.card .val small { font-size: 13px; font-weight: 400; color: var(--muted); }
-.card .detail { color: var(--muted); font-size: 12px; margin-top: 2px; }
-table { border-collapse: collapse; width: 100%; font-variant-numeric: tabular-nums; }
-th, td { padding: 5px 8px; border-bottom: 1px solid var(--line); text-align: right; white-space: nowrap; }
-th { font-size: 12px; color: var(--muted); font-weight: 600; vertical-align: bottom; }
-td.name, th.name { text-align: left; font-weight: 600; }
+:root { --front: #b3261e; }
 td.text, th.text { text-align: left; white-space: normal; }
-tbody tr:nth-child(even) { background: #fafbfc; }
 tr.front td.name::after { content: "Pareto"; margin-left: 8px; font-size: 11px; font-weight: 400; color: #fff;
                           background: var(--front); border-radius: 3px; padding: 1px 5px; }
 tr.floor td { color: var(--muted); font-style: italic; }
-td.problem { text-align: left; white-space: normal; color: var(--bad); }
-.note { color: var(--muted); font-size: 12.5px; margin: 8px 0 0; }
 .scroll { overflow-x: auto; }
-.note li { margin: 2px 0; }
-.chart-box { position: relative; height: 440px; }
+.chart-box { height: 440px; }
 .pair { display: grid; grid-template-columns: 1fr 1fr; gap: 18px; }
 .pair .chart-box { height: 360px; }
-#script-error { background: #fdecea; color: var(--bad); border: 1px solid #f5c2bd; padding: 10px 14px;
-                border-radius: 6px; margin: 0 0 18px; }
-footer { color: var(--muted); font-size: 12px; }
 @media (max-width: 900px) { .pair { grid-template-columns: 1fr; } }
 @media print {
-  @page { size: A4 landscape; margin: 12mm; }
-  html, body { background: #fff; }
-  body { max-width: none; padding: 0; font-size: 10.5pt; }
-  section { border: none; padding: 0; margin: 0 0 10mm; break-inside: avoid; }
+  section { margin: 0 0 10mm; break-inside: avoid; }
   .chart-box { height: 85mm; }
-  canvas { max-width: 100% !important; }
-  tr { break-inside: avoid; }
-  #script-error { display: none; }
 }
 )CSS";
 
-// Draws the three charts from the inline JSON and counts them on <body>
-// (data-charts-rendered), as the report page does.
-constexpr const char* kBenchScript = R"JS(
-(function () {
-  'use strict';
-  var body = document.body;
-  function fail(e) {
-    var msg = String((e && e.message) || e);
-    body.setAttribute('data-script-error', msg);
-    var box = document.getElementById('script-error');
-    if (box) { box.hidden = false; box.textContent = 'The charts could not be drawn: ' + msg; }
-  }
-  try {
-    if (typeof Chart === 'undefined') throw new Error('Chart.js is missing from this file');
-    var data = JSON.parse(document.getElementById('bench-data').textContent);
-    Chart.defaults.font.family = getComputedStyle(body).fontFamily;
-    Chart.defaults.font.size = 12;
-    Chart.defaults.color = '#333';
-    Chart.defaults.animation = false;
-    Chart.defaults.maintainAspectRatio = false;
-
-    var rendered = 0;
-    Chart.register({
-      id: 'renderedCounter',
-      afterRender: function (chart) {
-        if (chart.$tactresCounted || !(chart.width > 0 && chart.height > 0)) return;
-        chart.$tactresCounted = true;
-        chart.canvas.setAttribute('data-rendered-size', chart.width + 'x' + chart.height);
-        body.setAttribute('data-charts-rendered', String(++rendered));
-      }
-    });
+// The three charts, inside the shared page script (html_page.h: `data`,
+// `body`, the rendered-charts counter and textLabels are set up there).
+constexpr const char* kBenchChartScript = R"JS(
     // dataset.pointLabels[i]: text beside point i.
-    var pointLabels = {
-      id: 'pointLabels',
-      afterDatasetsDraw: function (chart) {
-        var ctx = chart.ctx;
-        ctx.save();
-        ctx.font = '11px ' + Chart.defaults.font.family;
-        ctx.textBaseline = 'middle';
-        chart.data.datasets.forEach(function (ds, di) {
-          if (!ds.pointLabels || !chart.isDatasetVisible(di)) return;
-          chart.getDatasetMeta(di).data.forEach(function (el, i) {
-            if (!ds.pointLabels[i]) return;
-            ctx.fillStyle = ds.borderColor;
-            ctx.fillText(ds.pointLabels[i], el.x + 8, el.y - 8);
-          });
-        });
-        ctx.restore();
-      }
-    };
+    var pointLabels = textLabels('pointLabels', '11px', 'start', 'middle', function (chart, ds, meta, el) {
+      return [el.x + 8, el.y - 8];
+    });
 
     var colours = {preset: '#1d2330', bin_px: '#0072b2', fit_psf_shape: '#d55e00',
                    pose_boundary_points: '#009e73', supersampling: '#cc79a7'};
@@ -214,31 +134,7 @@ constexpr const char* kBenchScript = R"JS(
         }
       }
     });
-  } catch (e) {
-    fail(e);
-  }
-})();
 )JS";
-
-// JSON inside <script>: "<" becomes \u003c, so nothing can close the element.
-std::string script_safe_json(const json& j) {
-  std::string out;
-  for (char ch : j.dump()) {
-    if (ch == '<') out += "\\u003c";
-    else out += ch;
-  }
-  return out;
-}
-
-// Inlined JavaScript must not contain "</script" (any case).
-std::string script_safe_js(std::string js) {
-  for (size_t pos = 0; (pos = js.find("</", pos)) != std::string::npos; pos += 2) {
-    std::string tag = js.substr(pos + 2, 6);
-    std::transform(tag.begin(), tag.end(), tag.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
-    if (tag == "script") js.replace(pos, 2, "<\\/");
-  }
-  return js;
-}
 
 json opt(const std::optional<double>& v) { return v && std::isfinite(*v) ? json(*v) : json(); }
 
@@ -342,17 +238,7 @@ std::string failures_table(const BenchResult& r) {
 
 std::string render_bench_html(const BenchResult& r, const HtmlReportOptions& options) {
   options.validate();
-  std::string chart_js;
-  try {
-    chart_js = read_file(options.chart_js);
-  } catch (const std::runtime_error&) {
-    throw std::runtime_error(fmt::format(
-        "cannot read Chart.js at {}: bench.html inlines it so that the page opens offline; install Debian's "
-        "libjs-chart.js (bash scripts/install-deps.sh)",
-        options.chart_js.string()));
-  }
-  if (chart_js.find("Chart") == std::string::npos)
-    throw std::runtime_error(options.chart_js.string() + " does not look like Chart.js (no \"Chart\" in it)");
+  const std::string chart_js = read_chart_js(options.chart_js, "bench.html");
 
   const BenchSummary* fastest = nullptr;
   const BenchSummary* most_accurate = nullptr;
@@ -364,22 +250,18 @@ std::string render_bench_html(const BenchResult& r, const HtmlReportOptions& opt
   int usable = 0;
   for (const BenchRow& row : r.rows) usable += row.usable && row.orientation == to_string(BarOrientation::horizontal_bars);
 
-  std::string s;
-  s.reserve(chart_js.size() + 100000);
-  s += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
-  s += fmt::format("<meta name=\"generator\" content=\"tactres {}\">\n", html_escape(options.tactres_version));
-  s += "<title>tactres bench: what accuracy costs in time</title>\n";
-  s += "<style>" + std::string(kBenchCss) + "</style>\n</head>\n";
-  s += "<body data-charts-expected=\"3\" data-charts-rendered=\"0\">\n";
-  s += "<header>\n<h1>tactres bench: what accuracy costs in time</h1>\n";
-  s += fmt::format(
-      "<p class=\"sub\">{} · {} scenes with known truth · {} measurements ({} usable) · camera: {} · machine: {} · "
-      "tactres {}</p>\n</header>\n",
+  // The kind of page (style, data id, charts) first; then this one's content.
+  HtmlPage page{.css = kBenchCss, .data_id = "bench-data", .chart_script = kBenchChartScript};
+  page.title = "tactres bench: what accuracy costs in time";
+  page.heading = page.title;
+  page.subtitle_html = fmt::format(
+      "{} · {} scenes with known truth · {} measurements ({} usable) · camera: {} · machine: {} · tactres {}",
       r.quick ? "quick suite (--quick)" : "full suite", r.scenes, r.captures, usable, html_escape(r.camera),
       html_escape(r.machine), html_escape(options.tactres_version));
-  s += "<div id=\"script-error\" hidden></div>\n";
+  page.tactres_version = options.tactres_version;
+  page.data = page_data(r);
 
+  std::string& s = page.body_html;
   s += "<section class=\"cards\">\n";
   s += fmt::format(
       "<div class=\"card\"><div class=\"k\">decode floor</div><div class=\"val\">{:.1f} <small>ms</small></div>"
@@ -442,10 +324,7 @@ std::string render_bench_html(const BenchResult& r, const HtmlReportOptions& opt
   s += "<footer>\n<p>Every number on this page is in bench.csv (one row per capture, setting and orientation) "
        "and bench_summary.csv; docs/BENCH.md describes the columns and the suite. Charts: Chart.js (MIT "
        "licence), inlined; the page needs no network.</p>\n</footer>\n";
-  s += "<script type=\"application/json\" id=\"bench-data\">" + script_safe_json(page_data(r)) + "</script>\n";
-  s += "<script>\n" + script_safe_js(std::move(chart_js)) + "\n</script>\n";
-  s += "<script>" + std::string(kBenchScript) + "</script>\n</body>\n</html>\n";
-  return s;
+  return render_html_page(page, chart_js);
 }
 
 }  // namespace tactres

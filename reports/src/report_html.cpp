@@ -1,7 +1,6 @@
 #include "tactres/reports/report_html.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -23,40 +22,20 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 // ---------------------------------------------------------------------------
-// Page style. Print CSS keeps the table and each chart on one page.
-constexpr const char* kCss = R"CSS(
-:root { --ink: #1d2330; --muted: #5b6472; --line: #d9dde3; --bg: #f5f6f8; --card: #fff;
-        --h: #1f5fa8; --v: #d9731a; --ok: #2e7d32; --bad: #b3261e; --ref: #38414f; }
-* { box-sizing: border-box; }
-html { background: var(--bg); }
-body { margin: 0 auto; max-width: 1240px; padding: 24px 28px 40px; color: var(--ink);
-       font: 14px/1.45 "DejaVu Sans", "Segoe UI", Roboto, "Helvetica Neue", Arial, sans-serif; }
-h1 { font-size: 24px; margin: 0 0 4px; letter-spacing: -0.01em; }
-h2 { font-size: 17px; margin: 0 0 10px; }
-.sub { color: var(--muted); margin: 0 0 18px; }
-section { background: var(--card); border: 1px solid var(--line); border-radius: 8px; padding: 16px 18px;
-          margin: 0 0 18px; }
-.cards { display: grid; grid-template-columns: repeat(auto-fit, minmax(220px, 1fr)); gap: 12px;
-         background: none; border: none; padding: 0; }
-.card { background: var(--card); border: 1px solid var(--line); border-radius: 8px; padding: 12px 14px; }
-.card .k { color: var(--muted); font-size: 12px; text-transform: uppercase; letter-spacing: 0.04em; }
-.card .val { font-size: 19px; font-weight: 600; margin-top: 2px; white-space: nowrap; }
-.card .val small { font-size: 13px; font-weight: 400; color: var(--muted); }
-.card .detail { color: var(--muted); font-size: 12px; margin-top: 2px; }
-table { border-collapse: collapse; width: 100%; font-variant-numeric: tabular-nums; }
-th, td { padding: 5px 8px; border-bottom: 1px solid var(--line); text-align: right; white-space: nowrap; }
-th { font-size: 12px; color: var(--muted); font-weight: 600; vertical-align: bottom; }
+// The report's own style, after the shared one (html_page.cpp). Print CSS
+// keeps the table and each chart on one page.
+constexpr const char* kReportCss = R"CSS(
+:root { --h: #1f5fa8; --v: #d9731a; --ref: #38414f; }
+.card .val { font-size: 19px; white-space: nowrap; }
 thead tr:first-child th.grp { text-align: center; border-bottom: 2px solid var(--line); color: var(--ink); }
 th.grp.h { border-bottom-color: var(--h) !important; }
 th.grp.v { border-bottom-color: var(--v) !important; }
-td.name, th.name { text-align: left; font-weight: 600; }
 td.sep, th.sep { border-left: 1px solid var(--line); }
-tbody tr:nth-child(even) { background: #fafbfc; }
 tr.reference { background: #eef1f5 !important; }
 tr.reference td.name::after { content: "reference"; margin-left: 8px; font-size: 11px; font-weight: 400;
                               color: #fff; background: var(--ref); border-radius: 3px; padding: 1px 5px; }
 tr.failed td { color: var(--muted); }
-td.problem { text-align: left; white-space: normal; color: var(--bad) !important; }
+td.problem { color: var(--bad) !important; }  /* also in a failed row (tr.failed td) */
 td.rank { font-weight: 700; }
 .pct { background: linear-gradient(to right, rgba(31, 95, 168, 0.55) var(--w), rgba(31, 95, 168, 0.08) var(--w))
         no-repeat left bottom 3px / 100% 3px; }
@@ -64,9 +43,7 @@ td.rank { font-weight: 700; }
 .status-failed, .status-partly_failed { color: var(--bad); font-weight: 600; }
 .status-reference { color: var(--ref); }
 .pm { color: var(--muted); }
-.note { color: var(--muted); font-size: 12.5px; margin: 8px 0 0; }
-.note li { margin: 2px 0; }
-.chart-box { position: relative; height: 420px; }
+.chart-box { height: 420px; }
 .curves { display: grid; grid-template-columns: 1fr 1fr; gap: 18px; }
 .curves .chart-box { height: 380px; }
 .curves h3 { font-size: 14px; margin: 0 0 6px; }
@@ -82,69 +59,34 @@ figure.thumb .placeholder { aspect-ratio: 16 / 9; display: flex; align-items: ce
                             45deg, #f3f4f6, #f3f4f6 10px, #eceef1 10px, #eceef1 20px); font-size: 12.5px; }
 table.inputs td, table.inputs th { text-align: left; white-space: normal; font-size: 12.5px; }
 table.inputs td.file { white-space: nowrap; font-family: "DejaVu Sans Mono", monospace; font-size: 11.5px; }
-#script-error { background: #fdecea; color: var(--bad); border: 1px solid #f5c2bd; padding: 10px 14px;
-                border-radius: 6px; margin: 0 0 18px; }
-footer { color: var(--muted); font-size: 12px; }
 footer p { margin: 4px 0; }
 @media (max-width: 900px) { .curves { grid-template-columns: 1fr; } }
 @media print {
-  @page { size: A4 landscape; margin: 12mm; }
-  html, body { background: #fff; }
-  body { max-width: none; padding: 0; font-size: 10.5pt; }
-  section { border: none; padding: 0; margin: 0 0 8mm; }
+  section { margin: 0 0 8mm; }
   h2, h3 { break-after: avoid; }
-  .card, tr, figure.thumb, .chart-box, .curves { break-inside: avoid; }
+  .card, figure.thumb, .chart-box, .curves { break-inside: avoid; }
   #bars, #curves, #overlays { break-before: page; }
   /* The charts keep their aspect ratio when the page is narrower than the
      screen they were drawn for (Chart.js also redraws them on beforeprint). */
-  canvas { max-width: 100% !important; height: auto !important; }
+  canvas { height: auto !important; }
   .chart-box { height: auto; }
   figure.thumb img { cursor: default; }
   .thumbs { grid-template-columns: repeat(4, 1fr); }
   .curves { grid-template-columns: 1fr 1fr; }
-  #script-error { display: none; }
 }
 )CSS";
 
 // ---------------------------------------------------------------------------
-// The page's script: draws the three charts with Chart.js and marks the body
-// with data-charts-rendered once each has drawn (the browser test reads it).
-// Two small Chart.js plugins: error bars and labelled reference lines.
-constexpr const char* kScript = R"JS(
-(function () {
-  'use strict';
-  var body = document.body;
-  function fail(e) {
-    var msg = String((e && e.message) || e);
-    body.setAttribute('data-script-error', msg);
-    var box = document.getElementById('script-error');
-    if (box) { box.hidden = false; box.textContent = 'The charts could not be drawn: ' + msg; }
-  }
-  try {
-    if (typeof Chart === 'undefined') throw new Error('Chart.js is missing from this file');
-    var data = JSON.parse(document.getElementById('report-data').textContent);
+// The report's charts, inside the shared page script (html_page.h: `data`,
+// `body`, the rendered-charts counter and textLabels are set up there).
+// Small Chart.js plugins: error bars, value labels, failed marks and
+// labelled reference lines.
+constexpr const char* kReportChartScript = R"JS(
     var H = '#1f5fa8', V = '#d9731a';
     var palette = ['#0072b2', '#d55e00', '#009e73', '#cc79a7', '#56b4e9', '#e69f00', '#6a3d9a', '#8c564b',
                    '#17becf', '#bcbd22', '#7f7f7f', '#1b9e77'];
     var colourOf = {};
     data.designs.forEach(function (d, i) { colourOf[d.design] = palette[i % palette.length]; });
-
-    Chart.defaults.font.family = getComputedStyle(body).fontFamily;
-    Chart.defaults.font.size = 12;
-    Chart.defaults.color = '#333';
-    Chart.defaults.animation = false;
-    Chart.defaults.maintainAspectRatio = false;
-
-    var rendered = 0;
-    Chart.register({
-      id: 'renderedCounter',
-      afterRender: function (chart) {
-        if (chart.$tactresCounted || !(chart.width > 0 && chart.height > 0)) return;
-        chart.$tactresCounted = true;
-        chart.canvas.setAttribute('data-rendered-size', chart.width + 'x' + chart.height);
-        body.setAttribute('data-charts-rendered', String(++rendered));
-      }
-    });
 
     function valueOf(raw) {
       if (raw === null || raw === undefined) return null;
@@ -182,28 +124,12 @@ constexpr const char* kScript = R"JS(
     };
 
     // dataset.valueLabels[i]: text drawn above bar i (above its error bar).
-    var valueLabels = {
-      id: 'valueLabels',
-      afterDatasetsDraw: function (chart) {
-        var ctx = chart.ctx;
-        ctx.save();
-        ctx.font = '600 10.5px ' + Chart.defaults.font.family;
-        ctx.textAlign = 'center';
-        ctx.textBaseline = 'bottom';
-        chart.data.datasets.forEach(function (ds, di) {
-          if (!ds.valueLabels || !chart.isDatasetVisible(di)) return;
-          var meta = chart.getDatasetMeta(di), y = chart.scales[meta.yAxisID];
-          meta.data.forEach(function (el, i) {
-            var t = ds.valueLabels[i], v = valueOf(ds.data[i]);
-            if (!t || v === null) return;
-            var top = y.getPixelForValue(v + ((ds.errorBars && ds.errorBars[i]) || 0));
-            ctx.fillStyle = ds.borderColor;
-            ctx.fillText(t, el.x, top - 3);
-          });
-        });
-        ctx.restore();
-      }
-    };
+    var valueLabels = textLabels('valueLabels', '600 10.5px', 'center', 'bottom', function (chart, ds, meta, el, i) {
+      var v = valueOf(ds.data[i]);
+      if (v === null) return null;
+      var top = chart.scales[meta.yAxisID].getPixelForValue(v + ((ds.errorBars && ds.errorBars[i]) || 0));
+      return [el.x, top - 3];
+    });
 
     // options.plugins.failedMarks.indices: categories drawn as "failed".
     var failedMarks = {
@@ -381,14 +307,13 @@ constexpr const char* kScript = R"JS(
         Object.values(Chart.instances).forEach(function (c) { c.resize(); });
       });
     });
-  } catch (e) {
-    fail(e);
-  }
-  // Thumbnails: a click shows one at full width and back.
+)JS";
+
+// Thumbnails: a click shows one at full width and back (charts or not).
+constexpr const char* kReportAfterScript = R"JS(
   document.querySelectorAll('figure.thumb img').forEach(function (img) {
     img.addEventListener('click', function () { img.parentElement.classList.toggle('enlarged'); });
   });
-})();
 )JS";
 
 // ---------------------------------------------------------------------------
@@ -407,29 +332,6 @@ std::string join(const std::vector<std::string>& parts, std::string_view sep) {
 std::string num(double v, int digits) { return fmt::format("{:.{}f}", v, digits); }
 
 json opt_json(std::optional<double> v) { return v ? json(*v) : json(); }
-
-// JSON inside <script>: "<" only occurs in strings, where \u003c is the same
-// character, and it can then never close the script element.
-std::string script_safe_json(const json& j) {
-  const std::string s = j.dump();
-  std::string out;
-  out.reserve(s.size());
-  for (char ch : s) {
-    if (ch == '<') out += "\\u003c";
-    else out += ch;
-  }
-  return out;
-}
-
-// Inlined JavaScript must not contain "</script" (case-insensitive).
-std::string script_safe_js(std::string js) {
-  for (size_t pos = 0; (pos = js.find("</", pos)) != std::string::npos; pos += 2) {
-    std::string tag = js.substr(pos + 2, 6);
-    std::transform(tag.begin(), tag.end(), tag.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
-    if (tag == "script") js.replace(pos, 2, "<\\/");
-  }
-  return js;
-}
 
 json orientation_json(const OrientationSummary& o) {
   return {{"value", opt_json(o.value_lp_per_mm())},
@@ -674,22 +576,6 @@ void HtmlReportOptions::validate() const {
   if (chart_js.empty()) throw std::invalid_argument("the Chart.js path is empty");
 }
 
-std::string html_escape(std::string_view text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char ch : text) {
-    switch (ch) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += ch;
-    }
-  }
-  return out;
-}
-
 std::string base64_encode(std::string_view bytes) {
   static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
@@ -771,17 +657,8 @@ std::optional<std::string> thumbnail_data_uri(const fs::path& path, int max_px, 
 
 std::string render_html_report(const Comparison& c, const HtmlReportOptions& options) {
   options.validate();
-  std::string chart_js;
-  try {
-    chart_js = read_file(options.chart_js);
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error(fmt::format(
-        "cannot read Chart.js at {}: the HTML report inlines it so that the page opens offline; install Debian's "
-        "libjs-chart.js (bash scripts/install-deps.sh) or give its path with --chart-js",
-        options.chart_js.string()));
-  }
-  if (chart_js.find("Chart") == std::string::npos)
-    throw std::runtime_error(options.chart_js.string() + " does not look like Chart.js (no \"Chart\" in it)");
+  // Read first: a missing Chart.js fails before any thumbnail is encoded.
+  const std::string chart_js = read_chart_js(options.chart_js, "the HTML report", "give its path with --chart-js");
 
   std::set<std::string> versions;
   for (const MeasurementRecord& m : c.measurements)
@@ -789,22 +666,24 @@ std::string render_html_report(const Comparison& c, const HtmlReportOptions& opt
   if (!c.reference.tactres_version.empty()) versions.insert(c.reference.tactres_version);
   const std::string measured_with = join(std::vector<std::string>(versions.begin(), versions.end()), ", ");
 
-  std::string s;
-  s.reserve(chart_js.size() + 200000);
-  s += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
-  s += fmt::format("<meta name=\"generator\" content=\"tactres {}\">\n", esc(options.tactres_version));
-  s += fmt::format("<title>Design comparison: {} design{} vs raw CMOS ({})</title>\n", c.designs.size(),
-                   c.designs.size() == 1 ? "" : "s", esc(c.reference_row.design));
-  s += "<style>" + std::string(kCss) + "</style>\n</head>\n";
-  s += "<body data-charts-expected=\"3\" data-charts-rendered=\"0\">\n";
-  s += "<header>\n<h1>Design comparison: resolution limits in lp/mm</h1>\n";
-  s += fmt::format(
-      "<p class=\"sub\">{} design{} against the bare camera <b>{}</b> (raw CMOS) · criterion m(f) &ge; {} and m "
-      "&minus; {}σ &gt; 0 · layout <code>{}</code> · report by tactres {}</p>\n</header>\n",
+  // The kind of page (style, data id, charts) first; then this one's content.
+  HtmlPage page{.css = kReportCss,
+                .data_id = "report-data",
+                .chart_script = kReportChartScript,
+                .after_script = kReportAfterScript};
+  page.title = fmt::format("Design comparison: {} design{} vs raw CMOS ({})", c.designs.size(),
+                           c.designs.size() == 1 ? "" : "s", c.reference_row.design);
+  page.heading = "Design comparison: resolution limits in lp/mm";
+  page.subtitle_html = fmt::format(
+      "{} design{} against the bare camera <b>{}</b> (raw CMOS) · criterion m(f) &ge; {} and m &minus; {}σ &gt; 0 · "
+      "layout <code>{}</code> · report by tactres {}",
       c.designs.size(), c.designs.size() == 1 ? "" : "s", esc(c.reference_row.design), c.threshold, c.significance_z,
       esc(c.layout), esc(options.tactres_version));
-  s += "<div id=\"script-error\" hidden></div>\n";
+  page.tactres_version = options.tactres_version;
+  page.data = page_data(c);
+
+  std::string& s = page.body_html;
+  s.reserve(200000);
   s += cards(c);
 
   s += "<section id=\"table\">\n<h2>Limits per design</h2>\n" + limits_table(c);
@@ -855,11 +734,7 @@ std::string render_html_report(const Comparison& c, const HtmlReportOptions& opt
       "<code>tactres measure</code> wrote it.</p>\n<p>Charts: Chart.js (MIT licence), inlined; the page needs no "
       "network.</p>\n</footer>\n",
       esc(options.tactres_version), esc(measured_with.empty() ? "an unknown version" : measured_with));
-
-  s += "<script type=\"application/json\" id=\"report-data\">" + script_safe_json(page_data(c)) + "</script>\n";
-  s += "<script>\n" + script_safe_js(std::move(chart_js)) + "\n</script>\n";
-  s += "<script>" + std::string(kScript) + "</script>\n</body>\n</html>\n";
-  return s;
+  return render_html_page(page, chart_js);
 }
 
 }  // namespace tactres

@@ -2,10 +2,11 @@
 // The bench as one self-contained HTML page (bench.html): accuracy versus
 // time per setting with the Pareto front and the decode floor, where the
 // time goes by stage, the simulator's supersampling sweep, and the summary
-// table. Built on the report's page machinery (report_html.h): the same
-// Chart.js source and options (HtmlReportOptions: Debian's libjs-chart.js,
-// inlined so the page opens offline), the same escaping, and the same
-// data-charts-expected / data-charts-rendered markers on <body>.
+// table. Built on the page machinery it shares with the report
+// (html_page.h): the same stylesheet, Chart.js source and options
+// (HtmlReportOptions: Debian's libjs-chart.js, inlined so the page opens
+// offline), escaping, and data-charts-expected / data-charts-rendered
+// markers on <body>.
 
 #include <string>
 

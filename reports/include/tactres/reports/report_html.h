@@ -2,7 +2,9 @@
 // The comparison as ONE self-contained HTML file that opens offline: inline
 // CSS, Chart.js inlined from Debian's libjs-chart.js, the data as inline
 // JSON, and overlay thumbnails as data URIs. No network, no other file.
-// docs/REPORT.md describes what it shows.
+// The page machinery (stylesheet, script prologue, markers on <body>) is
+// html_page.h's, shared with bench.html. docs/REPORT.md describes what it
+// shows.
 
 #include <filesystem>
 #include <optional>
@@ -10,12 +12,9 @@
 #include <string_view>
 
 #include "tactres/reports/comparison.h"
+#include "tactres/reports/html_page.h"
 
 namespace tactres {
-
-// Where Debian's libjs-chart.js installs the minified UMD build
-// (`dpkg -L libjs-chart.js`).
-inline constexpr const char* kDebianChartJsPath = "/usr/share/javascript/chart.js/chart.min.js";
 
 struct HtmlReportOptions {
   std::filesystem::path chart_js = kDebianChartJsPath;  // read at report time and inlined
@@ -32,9 +31,6 @@ std::string render_html_report(const Comparison& c, const HtmlReportOptions& opt
 
 // Standard base64 (RFC 4648, with padding), for data URIs.
 std::string base64_encode(std::string_view bytes);
-
-// Escapes &, <, >, " and ' for HTML text and attribute values.
-std::string html_escape(std::string_view text);
 
 // A data URI of the image at `path`, downscaled (area averaging) so that its
 // long side is at most max_px: the original bytes as image/png when the file
