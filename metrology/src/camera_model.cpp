@@ -154,6 +154,22 @@ CameraModel CameraModel::load(const std::filesystem::path& path) {
 
 CameraModel CameraModel::parse(const std::string& text, const std::string& source_name) {
   const std::string what = "camera model " + source_name;
+  // mrcal 2.2's parser reads past the end of its buffer (a crash) when a
+  // quoted string or a '#' comment is still open at the end of the text
+  // (found by fuzzing; a truncated .cameramodel does it). Refuse an open
+  // string or a NUL byte, and end a final comment with a newline, before
+  // mrcal sees the text. As in mrcal, a string ends at either quote.
+  if (text.find('\0') != std::string::npos)
+    throw std::invalid_argument(what + " is malformed: it holds a NUL byte (a .cameramodel is text)");
+  char open = 0;  // 0 outside strings and comments; the quote or '#' that opened one
+  for (const char c : text) {
+    if (open == '#') open = c == '\n' ? 0 : open;
+    else if (open) open = (c == '\'' || c == '"') ? 0 : open;
+    else if (c == '#' || c == '\'' || c == '"') open = c;
+  }
+  if (open && open != '#')
+    throw std::invalid_argument(what + " is malformed: a quoted string is not closed (is the file truncated?)");
+  if (open == '#') return parse(text + "\n", source_name);
   // With len <= 0 mrcal expects a NUL-terminated buffer, which c_str() is.
   mrcal_cameramodel_t* raw = mrcal_read_cameramodel_string(
       text.c_str(), text.empty() ? 0 : static_cast<int>(text.size()));

@@ -210,6 +210,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
       ProfileFitOptions fo;
       fo.fit_contrast = true;
       fo.fit_shape = false;
+      fo.quadratic_background = true;
       auto fit_both = [&](Signature sig) {
         fo.signature = sig;
         return std::make_pair(fit_profile(px.data, fo), fit_profile(py.data, fo));
@@ -254,7 +255,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
         // or a noise-free capture's tiny model error would trip it.
         const double misfit = std::max(fits.first.residual_rms / std::abs(fits.first.contrast * fits.first.b0),
                                        fits.second.residual_rms / std::abs(fits.second.contrast * fits.second.b0));
-        if (ref.usable && std::max(ref.chi2_x, ref.chi2_y) > options.max_patch_chi2 && misfit > 0.05) {
+        if (ref.usable && std::max(ref.chi2_x, ref.chi2_y) > options.max_patch_chi2 && misfit > 0.25) {
           ref.usable = false;
           ref.problem = fmt::format(
               "the capture does not match the layout: the reference patch is not where the layout puts it "
@@ -294,7 +295,11 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     r.outline_valid = sp.in_view;
     if (!sp.in_view) {
       r.status = ElementStatus::out_of_view;
-    } else if (r.px_per_bar < options.min_px_per_bar) {
+    } else if (r.px_per_bar < options.min_px_per_bar || r.px_per_bar <= 1.0) {
+      // At or beyond Nyquist (<= 1 px per bar) the bars are never resolved,
+      // whatever --min-px-per-bar allows: binning by sub-pixel phase can
+      // still recover the pre-sampling MTF there, but the image shows an
+      // alias, not the bars (DESIGN.md, "Guard").
       r.status = ElementStatus::below_sampling_limit;
     } else if (sp.pixels_clipped > sp.pixels_used / 50) {
       r.status = ElementStatus::clipped;

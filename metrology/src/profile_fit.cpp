@@ -16,7 +16,7 @@ namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // Parameter vector layout.
-enum : int { kB0 = 0, kB1, kLogNu0, kBeta, kContrast, kParamCount };
+enum : int { kB0 = 0, kB1, kLogNu0, kBeta, kContrast, kB2, kParamCount };
 
 // The model on the FFT grid, with its derivatives, for one parameter vector.
 class GridModel {
@@ -144,7 +144,8 @@ class ProfileCost final : public ceres::CostFunction {
       // mean u: linear interpolation would attenuate the fundamental by ~1%
       // at quarter-pixel grid spacing.
       const double g = (d_.u_mean_mm[i] - d_.u0_mm) / d_.bin_mm - 0.5;
-      const int i1 = std::clamp(static_cast<int>(std::floor(g)), 1, n - 3);
+      // Clamped as a double: casting an out-of-range g to int is UB.
+      const int i1 = static_cast<int>(std::clamp(std::floor(g), 1.0, n - 3.0));
       const double t = std::clamp(g - i1, 0.0, 1.0);
       const double t2 = t * t, t3 = t2 * t;
       const double w0 = -0.5 * t3 + t2 - 0.5 * t, w1 = 1.5 * t3 - 2.5 * t2 + 1;
@@ -153,7 +154,7 @@ class ProfileCost final : public ceres::CostFunction {
         return w0 * v[i1 - 1] + w1 * v[i1] + w2 * v[i1 + 1] + w3 * v[i1 + 2];
       };
       const double u = d_.u_mean_mm[i];
-      const double light = x[kB0] + x[kB1] * u;
+      const double light = x[kB0] + x[kB1] * u + x[kB2] * u * u;
       const double sig = at(conv);
       const double model = light * (1 + x[kContrast] * sig);
       const double w = 1.0 / d_.sigma[i];
@@ -165,6 +166,7 @@ class ProfileCost final : public ceres::CostFunction {
         J[kLogNu0] = light * x[kContrast] * at(dn) * w;
         J[kBeta] = light * x[kContrast] * at(db) * w;
         J[kContrast] = light * sig * w;
+        J[kB2] = u * u * (1 + x[kContrast] * sig) * w;
       }
     }
     return true;
@@ -218,10 +220,24 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
     out.failure = "profile too short or inconsistent";
     return out;
   }
+  // Non-finite geometry or weights would reach the model as NaN positions
+  // (found by fuzzing: an undefined float-to-int cast in the cost).
+  bool finite = std::isfinite(data.u0_mm) && std::isfinite(data.bin_mm) &&
+                std::isfinite(data.bin_spread_var_mm2) && data.bin_spread_var_mm2 >= 0;
+  for (const IdealBox& b : data.ideal)
+    finite = finite && std::isfinite(b.u0_mm) && std::isfinite(b.u1_mm) && std::isfinite(b.level);
+  for (int i = std::max(data.fit_begin, 0); i < std::min(data.fit_end, n); ++i)
+    if (data.count[i] > 0 && std::isfinite(data.value[i]))
+      finite = finite && std::isfinite(data.u_mean_mm[i]) && std::isfinite(data.sigma[i]) && data.sigma[i] > 0;
+  if (!finite) {
+    out.failure = "profile has non-finite positions, weights or pattern";
+    return out;
+  }
 
   GridModel model(data, options.signature);
   auto* cost = new ProfileCost(data, model);
-  const int free_params = 3 + (options.fit_shape ? 1 : 0) + (options.fit_contrast ? 1 : 0);
+  const int free_params = 3 + (options.fit_shape ? 1 : 0) + (options.fit_contrast ? 1 : 0) +
+                          (options.quadratic_background ? 1 : 0);
   if (cost->residual_count() < free_params + 3) {
     delete cost;
     out.failure = "too few samples across the bars";
@@ -250,7 +266,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
           : 2.0;
   double x[kParamCount] = {ground / weight, 0.0,
                            std::clamp(std::log(nu0_start), std::log(1e-3), std::log(2.0 / data.bin_mm)),
-                           beta_start, options.fit_contrast ? -0.5 : options.contrast};
+                           beta_start, options.fit_contrast ? -0.5 : options.contrast, 0.0};
 
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -259,6 +275,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   std::vector<int> fixed;
   if (!options.fit_shape) fixed.push_back(kBeta);
   if (!options.fit_contrast) fixed.push_back(kContrast);
+  if (!options.quadratic_background) fixed.push_back(kB2);
   if (!fixed.empty()) problem.SetManifold(x, new ceres::SubsetManifold(kParamCount, fixed));
   problem.SetParameterLowerBound(x, kLogNu0, std::log(1e-3));
   problem.SetParameterUpperBound(x, kLogNu0, std::log(2.0 / data.bin_mm));

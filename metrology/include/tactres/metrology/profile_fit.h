@@ -4,7 +4,7 @@
 //
 // Along the profile coordinate u (mm, across the bars), the capture is
 //
-//   P(u) = (B0 + B1 u) * (1 + c * [D (S (*) h)](u))
+//   P(u) = (B0 + B1 u [+ B2 u^2]) * (1 + c * [D (S (*) h)](u))
 //
 // S(u)  the ideal strip coverage of every artwork shape in the sampled strip
 //       (1 = ink or raised, 0 = ground), known from the layout;
@@ -72,6 +72,9 @@ struct ProfileFitOptions {
   bool fit_contrast = false;    // true on the reference patch
   double contrast = -0.9;       // c, used when !fit_contrast
   bool fit_shape = true;        // false: beta fixed at 2 (Gaussian)
+  // Adds B2 u^2 to the light: wide profiles (the reference patch) can span a
+  // curved illumination, e.g. the flank of a hot spot.
+  bool quadratic_background = false;
   double beta_min = 1.0, beta_max = 4.0;
   int max_iterations = 50;
   // Start of the LSF parameters (nu0 in cycles/mm, beta); 0 = default. The

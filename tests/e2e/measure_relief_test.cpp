@@ -1,0 +1,44 @@
+// End to end: the shipped relief-through-gel design scenes (examples/scenes)
+// measured against their truth files.
+#include <cmath>
+
+#include <doctest/doctest.h>
+
+#include "scene_fixtures.h"
+
+using namespace tactres;
+using namespace tactres::testing;
+
+namespace {
+
+void check_design(const std::string& design) {
+  TempDir dir("relief");
+  const Scene scene = read_scene_file(source_dir() / "examples/scenes" / (design + ".json"));
+  const CameraModel camera = CameraModel::load(scene.camera_path);
+  REQUIRE(scene.target == TargetKind::relief);
+  const RenderResult r = render_scene(scene, default_layout(), camera);
+  const auto file = dir.path / (design + ".png");
+  write_image(file, r.image, r.bits);
+  const Truth truth = compute_truth(scene, default_layout(), camera);
+  const Measurement m = measure_file(file, &camera);
+  CAPTURE(design);
+  CAPTURE(m.problem);
+  REQUIRE(m.usable);
+  CHECK(m.pose.seen_from_behind);
+  CHECK(m.reference.signature == Signature::shading);
+  for (const auto& [measured, true_limit] : {std::pair(m.horizontal, truth.horizontal), std::pair(m.vertical, truth.vertical)}) {
+    REQUIRE(true_limit.interpolated_lp_per_mm);
+    REQUIRE(measured.interpolated_lp_per_mm);
+    const double rel = *measured.interpolated_lp_per_mm / *true_limit.interpolated_lp_per_mm - 1;
+    CHECK(std::abs(rel) <= 0.03);  // the noisy-scene tolerance
+    CHECK(discrete_limit_agrees(measured, true_limit));
+    MESSAGE(design << ": limit " << *measured.interpolated_lp_per_mm << " vs true " << *true_limit.interpolated_lp_per_mm
+                   << " lp/mm (" << 100 * rel << " %), pose RMS " << m.pose.rms_px << " px");
+  }
+}
+
+}  // namespace
+
+TEST_CASE("relief through gel: T1C1 (light from above) limits agree with the truth") { check_design("T1C1"); }
+
+TEST_CASE("relief through gel: T1C4 (15 x 33 mm aperture) limits agree with the truth") { check_design("T1C4"); }
