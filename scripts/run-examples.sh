@@ -25,6 +25,7 @@ status=0
 if [ "$status" -gt 2 ]; then echo "measure failed with exit $status"; exit "$status"; fi
 
 echo "== report against the raw CMOS limit"
+mkdir -p "$out/report"
 designs=$(ls "$out"/measurements/*.json | grep -v '/cmos.json$')
 "$tactres" report $designs --reference "$out/measurements/cmos.json" \
   --html "$out/report/report.html" --csv "$out/report/report.csv"
