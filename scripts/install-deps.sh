@@ -17,6 +17,8 @@ packages=(
   libjs-chart.js       # charts, inlined into the HTML report (tactres report)
   chromium             # headless browser for the HTML report's test
   fonts-dejavu-core    # a font for the headless browser
+  clang-14             # libFuzzer targets (scripts/fuzz.sh)
+  libclang-rt-14-dev   # libFuzzer and sanitizer runtimes for clang
 )
 
 missing=()

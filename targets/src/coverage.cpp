@@ -7,6 +7,14 @@
 namespace tactres {
 namespace {
 
+// floor(v) clamped to [0, n - 1], clamped as a double: casting an
+// out-of-range or NaN v to int is UB (found by fuzzing: a layout whose
+// elements lie ~1e17 cells from its artwork).
+int cell_index(double v, int n) {
+  if (!(v >= 0)) return 0;
+  return v >= n - 1 ? n - 1 : static_cast<int>(std::floor(v));
+}
+
 RectMm bounds_of(std::span<const Vec2> pts) {
   RectMm b{pts[0].x, pts[0].y, pts[0].x, pts[0].y};
   for (const Vec2& p : pts) b = bounding_union(b, {p.x, p.y, p.x, p.y});
@@ -176,14 +184,16 @@ ArtworkIndex::ArtworkIndex(std::span<const ArtworkShape> shapes, double cell_mm)
     cell_mm = std::sqrt(std::max(extent_.area_mm2(), span * span * 1e-6) / double(bounds_.size()));
   }
   cell_mm_ = std::max(cell_mm, span / 1024.0);
-  nx_ = std::max(1, int(std::ceil(extent_.width_mm() / cell_mm_)));
-  ny_ = std::max(1, int(std::ceil(extent_.height_mm() / cell_mm_)));
+  // At most 1024 cells per side (cell_mm_ >= span / 1024); 1 when the
+  // extent overflows to inf and the ratio is NaN.
+  nx_ = std::max(1, cell_index(std::ceil(extent_.width_mm() / cell_mm_), 1026));
+  ny_ = std::max(1, cell_index(std::ceil(extent_.height_mm() / cell_mm_), 1026));
 
   auto cell_range = [&](const RectMm& b, int& i0, int& i1, int& j0, int& j1) {
-    i0 = std::clamp(int(std::floor((b.x0 - extent_.x0) / cell_mm_)), 0, nx_ - 1);
-    i1 = std::clamp(int(std::floor((b.x1 - extent_.x0) / cell_mm_)), 0, nx_ - 1);
-    j0 = std::clamp(int(std::floor((b.y0 - extent_.y0) / cell_mm_)), 0, ny_ - 1);
-    j1 = std::clamp(int(std::floor((b.y1 - extent_.y0) / cell_mm_)), 0, ny_ - 1);
+    i0 = cell_index((b.x0 - extent_.x0) / cell_mm_, nx_);
+    i1 = cell_index((b.x1 - extent_.x0) / cell_mm_, nx_);
+    j0 = cell_index((b.y0 - extent_.y0) / cell_mm_, ny_);
+    j1 = cell_index((b.y1 - extent_.y0) / cell_mm_, ny_);
   };
   // Two passes build the compressed rows without per-cell vectors.
   std::vector<int> count(size_t(nx_) * ny_ + 1, 0);
@@ -208,10 +218,10 @@ void ArtworkIndex::query(const RectMm& w, std::vector<int>& out) const {
   if (bounds_.empty() || w.x1 < extent_.x0 || w.x0 > extent_.x1 || w.y1 < extent_.y0 ||
       w.y0 > extent_.y1)
     return;
-  const int i0 = std::clamp(int(std::floor((w.x0 - extent_.x0) / cell_mm_)), 0, nx_ - 1);
-  const int i1 = std::clamp(int(std::floor((w.x1 - extent_.x0) / cell_mm_)), 0, nx_ - 1);
-  const int j0 = std::clamp(int(std::floor((w.y0 - extent_.y0) / cell_mm_)), 0, ny_ - 1);
-  const int j1 = std::clamp(int(std::floor((w.y1 - extent_.y0) / cell_mm_)), 0, ny_ - 1);
+  const int i0 = cell_index((w.x0 - extent_.x0) / cell_mm_, nx_);
+  const int i1 = cell_index((w.x1 - extent_.x0) / cell_mm_, nx_);
+  const int j0 = cell_index((w.y0 - extent_.y0) / cell_mm_, ny_);
+  const int j1 = cell_index((w.y1 - extent_.y0) / cell_mm_, ny_);
   for (int j = j0; j <= j1; ++j)
     for (int i = i0; i <= i1; ++i) {
       const size_t c = size_t(j) * nx_ + i;

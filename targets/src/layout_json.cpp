@@ -236,6 +236,8 @@ json parse_json_text(const std::string& text, const std::string& what) {
   } catch (const json::parse_error& e) {
     throw std::invalid_argument(fmt::format(
         "{} is not valid JSON (byte {}): {}", what, e.byte, e.what()));
+  } catch (const json::out_of_range& e) {  // a number beyond double's range, e.g. 1e400 (found by fuzzing)
+    throw std::invalid_argument(fmt::format("{} is not valid JSON: {}", what, e.what()));
   }
 }
 
