@@ -144,6 +144,11 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
   // Along-bar moments: the light varies along the bars too (vignetting,
   // illumination), which is not noise; the noise estimate removes it.
   std::vector<double> sum_v(d.bin_count, 0), sum_vv(d.bin_count, 0), sum_xv(d.bin_count, 0);
+  struct Sample {
+    double u_mm, v_mm, value;
+    int bin;
+  };
+  std::vector<Sample> samples;  // kept for the along-bar light correction below
   d.count.assign(d.bin_count, 0);
 
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
@@ -175,6 +180,7 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
       sum_v[b] += p.y;
       sum_vv[b] += p.y * p.y;
       sum_xv[b] += value * p.y;
+      samples.push_back({p.x, p.y, value, b});
       ++d.count[b];
       ++out.pixels_used;
     }
@@ -204,11 +210,59 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
   std::vector<int> filled;  // bins holding samples (aligned pixels leave gaps)
   for (int b = 0; b < d.bin_count; ++b)
     if (d.count[b] > 0) filled.push_back(b);
-  std::vector<std::pair<double, int>> flatness;  // |change across neighbours|, bin
-  for (size_t k = 1; k + 1 < filled.size(); ++k)
-    if (d.count[filled[k]] >= 3)
-      flatness.push_back({std::abs(d.value[filled[k + 1]] - d.value[filled[k - 1]]), filled[k]});
-  std::sort(flatness.begin(), flatness.end());
+  auto flattest_first = [&] {
+    std::vector<std::pair<double, int>> flatness;  // |change across neighbours|, bin
+    for (size_t k = 1; k + 1 < filled.size(); ++k)
+      if (d.count[filled[k]] >= 3)
+        flatness.push_back({std::abs(d.value[filled[k + 1]] - d.value[filled[k - 1]]), filled[k]});
+    std::sort(flatness.begin(), flatness.end());
+    return flatness;
+  };
+  std::vector<std::pair<double, int>> flatness = flattest_first();
+
+  // Light that varies along the bars (a hot spot, vignetting) is a relative
+  // gain 1 + g v over the strip. A bin's pixels need not be centred on
+  // v = 0: at a small roll the pixel rows fall into neighbouring bins in
+  // different bands of v, and their means would alternate by the gain
+  // difference, which no profile model describes. g is regressed from the
+  // pixels' departures from the profile P(u), interpolated between bin
+  // means: at a roll, u and v correlate within a bin, so a per-bin slope in
+  // u could not be told from the gain. Every bin mean is then referred to
+  // v = 0.
+  {
+    std::vector<double> bin_v(d.bin_count, 0);
+    for (int b : filled) bin_v[b] = sum_v[b] / d.count[b];
+    auto profile_at = [&](double u_mm) {
+      const auto hi = std::lower_bound(filled.begin(), filled.end(), u_mm,
+                                       [&](int b, double u) { return d.u_mean_mm[b] < u; });
+      if (hi == filled.begin()) return d.value[filled.front()];
+      if (hi == filled.end()) return d.value[filled.back()];
+      const int b1 = *hi, b0 = *(hi - 1);
+      const double t = (u_mm - d.u_mean_mm[b0]) / (d.u_mean_mm[b1] - d.u_mean_mm[b0]);
+      return d.value[b0] + t * (d.value[b1] - d.value[b0]);
+    };
+    double num = 0, den = 0;
+    for (const Sample& q : samples) {
+      const double P = profile_at(q.u_mm), dv = q.v_mm - bin_v[q.bin];
+      num += P * dv * (q.value - P);
+      den += P * P * dv * dv;
+    }
+    const double g_per_mm = den > 0 ? num / den : 0.0;
+    // Applied only when it matters and is real: interpolating P(u) between
+    // the bins of a fine element leaves errors that a spurious g would
+    // otherwise absorb.
+    double rss = 0;
+    for (const Sample& q : samples) {
+      const double P = profile_at(q.u_mm), dv = q.v_mm - bin_v[q.bin];
+      rss += std::pow(q.value - P - g_per_mm * P * dv, 2);
+    }
+    const double g_sigma = den > 0 && samples.size() > 2 ? std::sqrt(rss / (samples.size() - 2) / den) : 0.0;
+    const bool significant = std::abs(g_per_mm) > 4 * g_sigma && std::abs(g_per_mm) * V > 2e-3;
+    if (significant && std::abs(g_per_mm) * V < 0.5) {
+      for (int b : filled) d.value[b] /= 1.0 + g_per_mm * sum_v[b] / d.count[b];
+      flatness = flattest_first();
+    }
+  }
 
   // Noise model var(level) = a + b * level (read noise plus shot noise, the
   // photon-transfer relation of EMVA 1288), fitted to the within-bin
