@@ -1,4 +1,5 @@
-// `tactres generate`: the USAF-1951-style target in every output format.
+// `tactres generate`: the USAF-1951-style target (or, with --style
+// mil-std-150a, the standard chart) in every output format.
 // All outputs are rendered to hidden temporary files first and renamed into
 // place only when every one of them succeeded, so a failure leaves no partial
 // set behind.
@@ -18,6 +19,7 @@
 #include "tactres/targets/heightmap.h"
 #include "tactres/targets/layout.h"
 #include "tactres/targets/layout_json.h"
+#include "tactres/targets/mil_std_chart.h"
 #include "tactres/targets/raster.h"
 #include "tactres/targets/stl.h"
 #include "tactres/targets/svg.h"
@@ -36,6 +38,8 @@ struct GenerateArgs {
   double relief_um = 100.0;
   std::string polarity = to_string(Polarity::dark_bars_on_light);
   StlOptions stl;
+  std::string style = "usaf";  // usaf (the packed tactile layout) | mil-std-150a
+  bool first_given = false, last_given = false, field_given = false;
 };
 
 // "20" -> 20 x 20, "25x20" -> 25 x 20.
@@ -71,9 +75,26 @@ int run_generate(GenerateArgs a) {
   if (!a.field_mm.empty()) parse_field(a.field_mm, a.layout);
   a.layout.relief_height_mm = a.relief_um / 1000.0;
   a.layout.polarity = polarity_from_string(a.polarity);
-  a.layout.validate();
   a.stl.validate();
-  const TargetLayout layout = make_layout(a.layout);
+  TargetLayout layout;
+  if (a.style == "mil-std-150a") {
+    // The standard chart has its own size (the arrangement fixes it) and
+    // groups -2..7 unless the user chose a range.
+    if (a.field_given)
+      throw std::invalid_argument(
+          "--field-mm / --field-width-mm / --field-height-mm do not apply to --style mil-std-150a: the "
+          "standard arrangement fixes the chart's size (group -2 makes it about 88 x 63 mm)");
+    MilStdChartOptions c;
+    if (a.first_given) c.first_group = a.layout.first_group;
+    if (a.last_given) c.last_group = a.layout.last_group;
+    c.relief_height_mm = a.layout.relief_height_mm;
+    c.base_thickness_mm = a.layout.base_thickness_mm;
+    c.polarity = a.layout.polarity;
+    layout = make_mil_std_chart(c);
+  } else {
+    a.layout.validate();
+    layout = make_layout(a.layout);
+  }
   validate_raster_resolution(layout, a.px_per_mm);
 
   // Render in memory: the only failures left after this are I/O.
@@ -121,8 +142,9 @@ int run_generate(GenerateArgs a) {
   fmt::print("tactres generate: wrote {} files to {}\n", staged.size(), dir.string());
   fmt::print("  layout.json, target.svg, target.png (8-bit), target.tif (16-bit), "
              "height.tif (float, mm), relief.stl\n");
-  fmt::print("  field {:g} x {:g} mm, groups {}..{} ({:.3g} to {:.3g} lp/mm), {} elements x 2 "
+  fmt::print("  {}, field {:g} x {:g} mm, groups {}..{} ({:.3g} to {:.3g} lp/mm), {} elements x 2 "
              "orientations, {} shapes, {}\n",
+             a.style == "usaf" ? "USAF-1951-style tactile layout" : "MIL-STD-150A standard chart",
              layout.width_mm, layout.height_mm, layout.first_group, layout.last_group,
              usaf_lp_per_mm(layout.first_group, 1),
              usaf_lp_per_mm(layout.last_group, kUsafElementsPerGroup), layout.elements.size() / 2,
@@ -142,21 +164,29 @@ Command generate_command() {
                            "Output folder (created if missing); gets layout.json, target.svg, "
                            "target.png, target.tif, height.tif, relief.stl")
                 ->required();
-            app.add_option("--first-group", a->layout.first_group,
-                           "Coarsest USAF group, -10..12 (group g element e: 2^(g+(e-1)/6) lp/mm)")
-                ->capture_default_str();
-            app.add_option("--last-group", a->layout.last_group, "Finest USAF group, >= --first-group")
-                ->capture_default_str();
+            app.add_option("--style", a->style,
+                           "usaf: the project's packed layout with fiducials and a reference patch; "
+                           "mil-std-150a: the standard USAF-1951 chart (groups in pairs spiralling "
+                           "inward, the large square, no fiducials; docs/CHART.md)")
+                ->capture_default_str()
+                ->check(CLI::IsMember({"usaf", "mil-std-150a"}));
+            auto* first = app.add_option("--first-group", a->layout.first_group,
+                                         "Coarsest USAF group, -10..12 (group g element e: 2^(g+(e-1)/6) "
+                                         "lp/mm); default 0, or -2 for mil-std-150a")
+                              ->capture_default_str();
+            auto* last = app.add_option("--last-group", a->layout.last_group,
+                                        "Finest USAF group, >= --first-group; default 4, or 7 for mil-std-150a")
+                             ->capture_default_str();
             auto* field = app.add_option("--field-mm", a->field_mm,
                                          "Field size in mm as W or WxH, each side in [5, 1000] "
                                          "(default 20x20)");
-            app.add_option("--field-width-mm", a->layout.field_width_mm, "Field width in mm, [5, 1000]")
-                ->capture_default_str()
-                ->excludes(field);
-            app.add_option("--field-height-mm", a->layout.field_height_mm,
-                           "Field height in mm, [5, 1000]")
-                ->capture_default_str()
-                ->excludes(field);
+            auto* fw = app.add_option("--field-width-mm", a->layout.field_width_mm, "Field width in mm, [5, 1000]")
+                           ->capture_default_str()
+                           ->excludes(field);
+            auto* fh = app.add_option("--field-height-mm", a->layout.field_height_mm,
+                                      "Field height in mm, [5, 1000]")
+                           ->capture_default_str()
+                           ->excludes(field);
             app.add_option("--px-per-mm", a->px_per_mm,
                            "Raster resolution in pixels per mm, (0, 2000]; image size is "
                            "ceil(field * px/mm)")
@@ -174,7 +204,12 @@ Command generate_command() {
                            "Sides of the polygon that stands for each fiducial disc in the STL, "
                            "[8, 4096]")
                 ->capture_default_str();
-            return [a]() { return run_generate(*a); };
+            return [a, first, last, field, fw, fh]() {
+              a->first_given = first->count() > 0;
+              a->last_given = last->count() > 0;
+              a->field_given = field->count() > 0 || fw->count() > 0 || fh->count() > 0;
+              return run_generate(*a);
+            };
           }};
 }
 

@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "tactres/targets/glyphs.h"
 #include "tactres/targets/usaf_series.h"
 
 namespace tactres {
@@ -101,11 +102,7 @@ void LayoutOptions::validate() const {
         fmt::format("base thickness must be in (0, 100] mm, got {} mm", base_thickness_mm));
 }
 
-namespace {
-
-// Seven-segment glyphs built from non-overlapping rectangles, in a box of
-// width `w`, height `h` and stroke `t`. Labels are artwork only; no
-// measurement reads them.
+// Declared in glyphs.h (shared with the MIL-STD-150A chart).
 void append_glyph(char c, Vec2 origin, double w, double h, double t, std::vector<RectMm>& out) {
   const double mid0 = 0.5 * (h - t), mid1 = 0.5 * (h + t);
   const RectMm a{0, 0, w, t}, g{0, mid0, w, mid1}, d{0, h - t, w, h};
@@ -127,6 +124,8 @@ void append_glyph(char c, Vec2 origin, double w, double h, double t, std::vector
   }
   for (const RectMm& r : segs) out.push_back(r.translated(origin));
 }
+
+namespace {
 
 double glyph_width(char c, double digit_w, double t) { return c == '.' ? t : digit_w; }
 
