@@ -1,4 +1,5 @@
 #include "tactres/metrology/measure.h"
+#include "tactres/metrology/rectified_search.h"
 
 #include <algorithm>
 #include <chrono>
@@ -136,13 +137,17 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   auto t = Clock::now();
   const cv::Mat detection_image = filled_for_detection(lum);
   M.fiducials = find_fiducials(detection_image, layout);
+  // A strongly distorting lens bends the disc pattern away from a plane
+  // homography. With a lens model, search again on a rectified copy, where
+  // the pattern is a homography again; the pose is then fitted through
+  // that copy's pinhole, which shares the lens's rays.
+  std::optional<CameraModel> search_camera;  // the rectified view's pinhole, if used
   if (!M.fiducials.found && camera && !camera->is_pinhole()) {
-    // A strongly distorting lens bends the disc pattern away from a plane
-    // homography; the pose fit models the lens, so the search may be laxer.
-    FiducialSearchOptions lax;
-    lax.max_fit_error_frac = 0.08;
-    FiducialSearchResult retry = find_fiducials(detection_image, layout, lax);
-    if (retry.found) M.fiducials = retry;
+    std::optional<RectifiedSearch> rectified = find_fiducials_rectified(detection_image, layout, *camera);
+    if (rectified && rectified->fiducials.found) {
+      M.fiducials = rectified->fiducials;
+      search_camera = rectified->pinhole;
+    }
   }
   M.stage_seconds.push_back({"locate_fiducials", since(t)});
   if (!M.fiducials.found) {
@@ -158,7 +163,14 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   PoseOptions po;
   po.boundary_points = options.pose_boundary_points;
   std::optional<CameraModel> fitted;
-  if (camera) {
+  if (search_camera) {
+    M.pose = fit_pose(*search_camera, discs, po);
+    M.camera_source = camera->source();
+    M.distortion_corrected = true;
+    // Report the discs where they are in the capture.
+    for (FiducialDetection& d : M.fiducials.discs)
+      if (auto p = unrectify_point(d.centroid_px, *camera, *search_camera)) d.centroid_px = *p;
+  } else if (camera) {
     M.pose = fit_pose(*camera, discs, po);
     M.camera_source = camera->source();
     M.distortion_corrected = true;

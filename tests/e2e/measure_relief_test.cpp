@@ -42,3 +42,14 @@ void check_design(const std::string& design) {
 TEST_CASE("relief through gel: T1C1 (light from above) limits agree with the truth") { check_design("T1C1"); }
 
 TEST_CASE("relief through gel: T1C4 (15 x 33 mm aperture) limits agree with the truth") { check_design("T1C4"); }
+
+TEST_CASE("relief through gel: T1C2 and T1C3 limits agree with the truth") {
+  check_design("T1C2");
+  check_design("T1C3");
+}
+
+// T2: light guided through the elastomer, a hot spot beside the reference
+// patch and the coarse elements (light varying along the bars).
+TEST_CASE("relief through gel: T2C1-T2C4 (edge-lit, hot spot) limits agree with the truth") {
+  for (const char* design : {"T2C1", "T2C2", "T2C3", "T2C4"}) check_design(design);
+}
