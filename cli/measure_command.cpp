@@ -13,6 +13,7 @@
 
 #include "command.h"
 #include "exit_codes.h"
+#include "tactres/metrology/chart_measure.h"
 #include "tactres/metrology/image_io.h"
 #include "tactres/metrology/measure.h"
 #include "tactres/metrology/measurement_io.h"
@@ -32,6 +33,11 @@ struct Args {
   std::optional<double> require_h, require_v, min_px_per_bar;
   int channel = -1;
   int jobs = 0;
+  // Chart mode (--chart usaf1951): a standard chart without layout or fiducials.
+  std::string chart;
+  std::optional<int> largest_group;
+  int largest_element = 1;
+  std::optional<double> px_per_mm;
 };
 
 // What one image produced, for the summary, the exit code and JUnit.
@@ -52,13 +58,27 @@ std::string limit_text(const Limit& l) {
   return s;
 }
 
+std::string chart_anchor_text(const ChartDetection& d) {
+  switch (d.anchor) {
+    case ChartAnchor::none: return "none";
+    case ChartAnchor::largest_group:
+      return fmt::format("--largest-group (largest element found = G{}E{})", d.elements.front().group,
+                         d.elements.front().element);
+    case ChartAnchor::px_per_mm:
+      return fmt::format("--px-per-mm (largest element found = G{}E{})", d.elements.front().group,
+                         d.elements.front().element);
+  }
+  return "none";
+}
+
 // The limit used against --require-*: interpolated when there is one.
 std::optional<double> gate_value(const Limit& l) {
   if (!l.any_resolved) return 0.0;
   return l.interpolated_lp_per_mm.value_or(l.lp_per_mm);
 }
 
-Outcome measure_one(const Args& a, const std::string& image_path, const TargetLayout& layout,
+// `layout` is null in chart mode.
+Outcome measure_one(const Args& a, const std::string& image_path, const TargetLayout* layout,
                     const CameraModel* camera, const MeasureOptions& options, bool batch) {
   Outcome o;
   o.image = image_path;
@@ -84,18 +104,38 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   MeasurementContext ctx;
   ctx.image = image_path;
   ctx.design = o.design;
-  ctx.layout = a.layout;
+  ctx.layout = layout ? a.layout : "chart:" + a.chart;
   ctx.tactres_version = TACTRES_VERSION;
   ctx.options = &options;
 
   Measurement m;
+  std::optional<ChartDetection> chart;
   LoadedImage img;
   try {
     const auto td = std::chrono::steady_clock::now();
     img = load_image(image_path, lo);
     ctx.decode_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - td).count();
     ctx.loaded = &img;
-    m = measure_capture(img, layout, camera, options);
+    if (layout) {
+      m = measure_capture(img, *layout, camera, options);
+    } else {
+      ChartMeasureOptions co;
+      co.measure = options;
+      co.detect.largest_group = a.largest_group;
+      co.detect.largest_element = a.largest_element;
+      co.detect.px_per_mm = a.px_per_mm;
+      ChartMeasurement cm = measure_chart(img, co);
+      m = std::move(cm.measurement);
+      chart = std::move(cm.detection);
+      // A chart in which nothing is resolved cannot be measured: the JSON
+      // still shows the coarsest element found as unresolved.
+      if (m.usable && !m.horizontal.any_resolved && !m.vertical.any_resolved) {
+        m.usable = false;
+        m.problem =
+            "nothing on the chart is resolved: even the coarsest element found is below the criterion; bring the "
+            "chart into focus or frame coarser groups";
+      }
+    }
   } catch (const UnusableInput& e) {
     m.usable = false;
     m.problem = e.what();
@@ -113,8 +153,12 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
 
   // Outputs, each atomic. An unusable capture still gets its JSON, which
   // says why, so that reports show it as failed instead of dropping it.
-  if (!json_path.empty()) write_file_atomically(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
-  if (m.usable) {
+  if (!json_path.empty()) {
+    nlohmann::json j = measurement_to_json(m, ctx);
+    if (chart) j["chart"] = chart_to_json(*chart);
+    write_file_atomically(json_path, j.dump(2) + "\n");
+  }
+  if (m.usable || (chart && !m.elements.empty())) {
     if (!csv_path.empty())
       write_file_atomically(csv_path, measurement_csv_header() + measurement_csv_rows(m, ctx));
     if (!overlay_path.empty()) write_image(overlay_path, overlay_image(img.luminance, m));
@@ -144,9 +188,18 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   } else if (a.require_h || a.require_v) {
     spec = " [within spec]";
   }
-  o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded{}{}", o.design, limit_text(m.horizontal),
-                          limit_text(m.vertical), ok, other, m.distortion_corrected ? "" : "; distortion NOT corrected",
-                          spec);
+  if (chart) {
+    const bool relative = chart->anchor == ChartAnchor::none;
+    o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded; chart {}, anchor: {}{}{}", o.design,
+                            limit_text(m.horizontal), limit_text(m.vertical), ok, other,
+                            chart->light_bars ? "negative" : "positive", chart_anchor_text(*chart),
+                            relative ? " (indices relative to the largest element found = G0E1; lp/mm relative)" : "",
+                            spec);
+  } else {
+    o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded{}{}", o.design, limit_text(m.horizontal),
+                            limit_text(m.vertical), ok, other, m.distortion_corrected ? "" : "; distortion NOT corrected",
+                            spec);
+  }
   return o;
 }
 
@@ -193,8 +246,27 @@ Command measure_command() {
             auto a = std::make_shared<Args>();
             app.add_option("images", a->images, "Capture(s): any format OpenImageIO reads (PNG, TIFF, EXR, JPEG...)")
                 ->required();
-            app.add_option("--layout", a->layout, "Layout JSON of the captured target (from `tactres generate`)")
-                ->required();
+            auto* layout_opt = app.add_option("--layout", a->layout,
+                                              "Layout JSON of the captured target (from `tactres generate`); "
+                                              "not with --chart");
+            auto* chart_opt = app.add_option("--chart", a->chart,
+                                             "Measure a standard USAF-1951 chart (MIL-STD-150A) found in the image, "
+                                             "with no layout and no fiducials (docs/CHART.md)")
+                                  ->check(CLI::IsMember({"usaf1951"}))
+                                  ->excludes(layout_opt);
+            auto* lg = app.add_option("--largest-group", a->largest_group,
+                                      "Chart mode anchor: the largest element found belongs to this group (-10..12)")
+                           ->needs(chart_opt);
+            app.add_option("--largest-element", a->largest_element,
+                           "With --largest-group: which element of it the largest one found is (1..6)")
+                ->capture_default_str()
+                ->check(CLI::Range(1, 6))
+                ->needs(lg);
+            app.add_option("--px-per-mm", a->px_per_mm,
+                           "Chart mode anchor: image scale at the chart plane in px/mm (the largest element's "
+                           "frequency follows from its period)")
+                ->needs(chart_opt)
+                ->excludes(lg);
             app.add_option("--camera", a->camera,
                            "mrcal .cameramodel of the camera (default: a pinhole fitted from the fiducials, "
                            "distortion not corrected)");
@@ -244,7 +316,12 @@ Command measure_command() {
               options.signature = a->signature;
               if (a->min_px_per_bar) options.min_px_per_bar = *a->min_px_per_bar;
               options.validate();
-              const TargetLayout layout = read_layout_file(a->layout);
+              if (a->chart.empty() && a->layout.empty())
+                throw std::invalid_argument("give the target: --layout layout.json, or --chart usaf1951 for a standard chart");
+              if (!a->chart.empty() && !a->camera.empty())
+                throw std::invalid_argument("--camera does not apply to --chart: chart mode measures each pattern in its own frame");
+              std::optional<TargetLayout> layout;
+              if (a->chart.empty()) layout = read_layout_file(a->layout);
               std::optional<CameraModel> camera;
               if (!a->camera.empty()) camera = CameraModel::load(a->camera);
               if (!a->out_dir.empty()) {
@@ -262,7 +339,7 @@ Command measure_command() {
               auto worker = [&]() {
                 for (size_t i; (i = next++) < a->images.size();) {
                   try {
-                    outcomes[i] = measure_one(*a, a->images[i], layout, camera ? &*camera : nullptr, options, batch);
+                    outcomes[i] = measure_one(*a, a->images[i], layout ? &*layout : nullptr, camera ? &*camera : nullptr, options, batch);
                   } catch (const std::exception& e) {  // an output could not be written
                     outcomes[i].image = a->images[i];
                     outcomes[i].design = fs::path(a->images[i]).stem().string();

@@ -1,0 +1,90 @@
+#pragma once
+// Finding a standard USAF-1951 chart (MIL-STD-150A) in a photograph with no
+// fiducials and no layout file (`tactres measure --chart usaf1951`).
+//
+// 1. Bars: the image is binarised against its local mean at a ladder of
+//    window sizes (so bars of any size stand out against their own
+//    surroundings), in both polarities (dark bars: positive chart; light
+//    bars: negative chart). Connected components whose second moments are
+//    those of a filled 5:1 rectangle are bar candidates. Digits (whose
+//    seven segments touch, so each digit is one blob), the large square and
+//    dust are not 5:1 rectangles and drop out here.
+// 2. Patterns: three parallel bars of the same size, one period (2 bar
+//    widths) apart and side by side, make a three-bar pattern: its centre,
+//    bar direction and period in pixels.
+// 3. Elements: two perpendicular patterns of the same period, 2.5..5
+//    periods apart, make an element. The one whose bars are parallel to the
+//    line joining the two is the horizontal-bar pattern (in the chart frame
+//    the H triplet sits beside the V triplet along x); this holds under any
+//    rotation and mirroring.
+// 4. Indices: elements are numbered from the largest found, one step per
+//    2^(1/6) in period.
+// 5. Anchor: the absolute group comes from --px-per-mm (the largest
+//    element's frequency follows from its period), or from --largest-group
+//    (the largest element found is element --largest-element of it); without
+//    either, indices stay relative and the result says so.
+//
+// Mild perspective is absorbed because every pattern has its own frame.
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "tactres/targets/geometry.h"
+
+namespace tactres {
+
+struct ChartDetectOptions {
+  std::optional<int> largest_group;      // --largest-group G (-10..12)
+  int largest_element = 1;               // with largest_group: which element the largest one is, 1..6
+  std::optional<double> px_per_mm;       // --px-per-mm N at the chart plane, (0, 1e5]
+  double min_bar_px = 1.2;               // finer bars are not searched for
+  void validate() const;                 // throws std::invalid_argument
+};
+
+// One three-bar pattern in the image.
+struct BarPattern {
+  Vec2 center_px;
+  Vec2 bar_dir;             // unit vector along the bars' long side
+  double period_px = 0;     // bar + gap, across the bars
+  double bar_length_px = 0;
+  bool light_bars = false;  // bars brighter than the ground (negative chart)
+  std::array<Vec2, 3> bar_centers_px{};
+  bool predicted = false;   // not found but placed by its column (see ChartDetection)
+};
+
+enum class ChartAnchor { none, largest_group, px_per_mm };
+const char* to_string(ChartAnchor a);
+
+// One element: a horizontal- and a vertical-bar pattern of the same size.
+struct ChartElement {
+  int h = -1, v = -1;       // indices into ChartDetection::patterns
+  double period_px = 0;     // mean of the two
+  int relative_index = 0;   // 0 = the largest element found; +1 per 2^(1/6) finer
+  int group = 0, element = 1;  // absolute when anchored; else relative (largest = group 0 element 1)
+};
+
+struct ChartDetection {
+  bool found = false;
+  std::string problem;              // why not found, and what to do
+  std::vector<BarPattern> patterns;
+  std::vector<ChartElement> elements;  // coarse to fine
+  bool light_bars = false;          // negative chart
+  ChartAnchor anchor = ChartAnchor::none;
+  std::string anchor_description;   // what the anchor was, in words
+  int largest_index = 0;            // absolute series index 6 g + e - 1 of relative index 0
+  int unpaired_patterns = 0;        // patterns found without a partner (not measured)
+  // Elements placed, not found: the element after the finest one found in a
+  // column, where three found elements in a row fix the column's geometric
+  // progression (each element 2^(-1/6) the size of the one before, and so
+  // its offset). Bars too faint to binarise are still measured there, so
+  // that the limit can be bracketed. Never past element 6 of an anchored group.
+  int predicted_elements = 0;
+};
+
+ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& options);
+
+}  // namespace tactres
