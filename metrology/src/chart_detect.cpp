@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace tactres {
@@ -290,9 +291,9 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
     });
   }
   const double sigma = noise_sigma(img);
-  const double level = cv::mean(img)[0];
+  const double mean_level = cv::mean(img)[0];
   // Margin: noise must not make bars, nor the faint texture of a clean print.
-  const double margin = std::max(3.0 * sigma, 0.01 * std::abs(level));
+  const double margin = std::max(3.0 * sigma, 0.01 * std::abs(mean_level));
 
   std::vector<Bar> dark, light;
   const int max_window = std::max(7, std::min(img.cols, img.rows) / 2);
@@ -314,6 +315,19 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   Pairing& pairing = D.light_bars ? el : ed;
   D.unpaired_patterns = pairing.unpaired;
   std::vector<ChartElement> elements = std::move(pairing.elements);
+  // Every element of a chart has the same layout: the H-to-V separation in
+  // periods is one number (3.5 on the generated chart). A pair far from the
+  // chart's median is two patterns of different elements.
+  if (elements.size() >= 3) {
+    auto separation = [&](const ChartElement& e) {
+      return norm(D.patterns[e.v].center_px - D.patterns[e.h].center_px) / e.period_px;
+    };
+    std::vector<double> seps;
+    for (const ChartElement& e : elements) seps.push_back(separation(e));
+    std::nth_element(seps.begin(), seps.begin() + seps.size() / 2, seps.end());
+    const double median = seps[seps.size() / 2];
+    std::erase_if(elements, [&](const ChartElement& e) { return std::abs(separation(e) / median - 1) > 0.12; });
+  }
   if (elements.empty()) {
     D.problem = D.patterns.empty()
                     ? "no USAF-1951 chart found: no three-bar pattern in the image (is the chart in view, in "
@@ -324,32 +338,98 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
     return D;
   }
 
-  // Relative indices: 6 log2(period ratio) steps from the largest. The
-  // offset comes from the well-sampled elements (>= 8 px per period), whose
-  // periods the binarisation gets right. Blur widens the outer bars of a
-  // fine pattern in the binarised image and so overstates its period; the
-  // order of the periods survives, and no (group, element) appears twice on
-  // a chart, so the indices must rise strictly in that order.
-  std::sort(elements.begin(), elements.end(),
-            [](const ChartElement& a, const ChartElement& b) { return a.period_px > b.period_px; });
-  const double p0 = elements.front().period_px;
-  double offset = 0;
-  int n_offset = 0;
-  for (const ChartElement& e : elements)
-    if (e.period_px >= 8) {
-      const double x = 6 * std::log2(p0 / e.period_px);
-      offset += x - std::round(x);
-      ++n_offset;
+  // Relative indices: 6 log2(period ratio) steps from the largest.
+  // - Perspective makes the image scale vary over the chart (a 15 degree
+  //   tilt of a chart filling the view: +-20 %, more than one step), so the
+  //   periods are first divided by a scale field ln s = c1 x + c2 y, fitted
+  //   jointly with the indices (a few rounds: indices from the corrected
+  //   periods, then the field from the indices).
+  // - Blur widens the outer bars of a fine pattern in the binarised image
+  //   and so overstates its period; the order of the corrected periods
+  //   survives, and no (group, element) appears twice on a chart, so the
+  //   indices must rise strictly in that order.
+  // - The rounding offset comes from the well-sampled elements (>= 8 px
+  //   per period), whose periods the binarisation gets right.
+  auto centre = [&](const ChartElement& e) { return 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px); };
+  // ln(scale) = g . (position - image centre) / half the image size.
+  const double half = 0.5 * std::max(img.cols, img.rows);
+  auto position = [&](const ChartElement& e) {
+    const Vec2 c = centre(e);
+    return Vec2{(c.x - 0.5 * img.cols) / half, (c.y - 0.5 * img.rows) / half};
+  };
+  // Indices for a given field gradient: strictly rising in the order of the
+  // corrected periods, rounded with the offset of the well-sampled ones.
+  auto assign = [&](Vec2 g, std::vector<ChartElement>& out) {
+    auto corrected = [&](const ChartElement& e) { return e.period_px * std::exp(-dot(g, position(e))); };
+    std::vector<ChartElement> sorted = elements;
+    std::sort(sorted.begin(), sorted.end(),
+              [&](const ChartElement& a, const ChartElement& b) { return corrected(a) > corrected(b); });
+    const double p0 = corrected(sorted.front());
+    double offset = 0;
+    int n_offset = 0;
+    for (const ChartElement& e : sorted)
+      if (e.period_px >= 8) {
+        const double x = 6 * std::log2(p0 / corrected(e));
+        offset += x - std::round(x);
+        ++n_offset;
+      }
+    if (n_offset > 0) offset /= n_offset;
+    out.clear();
+    double sum = 0, sum2 = 0;
+    int n = 0;
+    for (ChartElement e : sorted) {
+      const double x = 6 * std::log2(p0 / corrected(e)) - offset;
+      e.relative_index = static_cast<int>(std::lround(x));
+      if (!out.empty()) e.relative_index = std::max(e.relative_index, out.back().relative_index + 1);
+      if (e.relative_index - x > 1.6) continue;  // far off the series: not a chart element
+      out.push_back(e);
+      if (e.period_px >= 8) {  // misfit of the well-sampled ones, in steps
+        const double r = e.relative_index - x;
+        sum += r, sum2 += r * r, ++n;
+      }
     }
-  if (n_offset > 0) offset /= n_offset;
+    return n > 1 ? sum2 / n - (sum / n) * (sum / n) + 1e-3 * norm(g) : 0.0;
+  };
+  // The gradient: a grid search, then a finer one around the best; +-30 %
+  // scale change over half the image covers a 15-20 degree tilt of a chart
+  // that fills the view. A search, not a fit, because wrong indices make a
+  // fit converge to a wrong but self-consistent field.
+  Vec2 best_g{0, 0};
   std::vector<ChartElement> kept;
-  for (ChartElement e : elements) {
-    const double x = 6 * std::log2(p0 / e.period_px) - offset;
-    e.relative_index = static_cast<int>(std::lround(x));
-    if (!kept.empty()) e.relative_index = std::max(e.relative_index, kept.back().relative_index + 1);
-    // Far off the series even after that: not a chart element.
-    if (e.relative_index - x > 1.6) continue;
-    kept.push_back(e);
+  double best_cost = assign(best_g, kept);
+  for (double step : {0.03, 0.006}) {
+    const Vec2 c = best_g;
+    for (int i = -10; i <= 10; ++i)
+      for (int j = -10; j <= 10; ++j) {
+        const Vec2 g{c.x + i * step, c.y + j * step};
+        std::vector<ChartElement> trial;
+        const double cost = assign(g, trial);
+        if (cost < best_cost - 1e-12) best_cost = cost, best_g = g;
+      }
+  }
+  assign(best_g, kept);
+  auto level = [&](const ChartElement& e) {
+    return std::log(e.period_px) + e.relative_index * std::log(2.0) / 6 - dot(best_g, position(e));
+  };
+  // A well-sampled element whose period does not fit its index under the
+  // field is a mismatch (more than half a step off).
+  {
+    std::vector<double> levels;
+    for (const ChartElement& e : kept)
+      if (e.period_px >= 8) levels.push_back(level(e));
+    if (levels.size() >= 3) {
+      std::nth_element(levels.begin(), levels.begin() + levels.size() / 2, levels.end());
+      const double c0 = levels[levels.size() / 2];
+      std::erase_if(kept, [&](const ChartElement& e) {
+        return e.period_px >= 8 && std::abs(level(e) - c0) > 0.5 * std::log(2.0) / 6;
+      });
+    }
+  }
+  std::sort(kept.begin(), kept.end(),
+            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+  if (kept.empty()) {
+    D.problem = "no USAF-1951 chart found: the elements found do not follow the 2^(1/6) series";
+    return D;
   }
   const int min_index = kept.front().relative_index;
   for (ChartElement& e : kept) e.relative_index -= min_index;

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <optional>
 
 #include <fmt/format.h>
@@ -176,6 +175,38 @@ ProfileData scaled(const ProfileData& d, double scale) {
   return out;
 }
 
+// The ideal pattern moved by `shift_mm` along u (the complement's constant
+// stays).
+ProfileData shifted(const ProfileData& d, double shift_mm) {
+  ProfileData out = d;
+  for (IdealBox& b : out.ideal)
+    if (!is_complement_box(d, b)) b.u0_mm += shift_mm, b.u1_mm += shift_mm;
+  return out;
+}
+
+// The shift the profile model itself prefers, to a small fraction of a
+// bar: the vertex of chi^2 over three shifted ideals, twice, with the step
+// shrinking. The correlation centring (refine_shift) gets within a tenth of
+// a bar or so; at sharp edges and near the limit that residue would still
+// read as blur. Returns the profile with the ideal moved.
+ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm) {
+  ProfileData best = d;
+  double h = 0.1 * w_mm;
+  for (int iter = 0; iter < 2; ++iter, h /= 3) {
+    double chi[3];
+    for (int i = 0; i < 3; ++i) {
+      const ProfileFit f = fit_profile(shifted(best, (i - 1) * h), fo);
+      if (!f.usable) return best;
+      chi[i] = f.chi2_reduced;
+    }
+    const double den = chi[0] - 2 * chi[1] + chi[2];
+    // No curvature worth the name: the data do not place the pattern.
+    if (!(den > 1e-3 * chi[1])) return best;
+    best = shifted(best, h * std::clamp(0.5 * (chi[0] - chi[2]) / den, -1.5, 1.5));
+  }
+  return best;
+}
+
 // The scale of the pattern (relative to the frame's) that the profile model
 // itself prefers: the vertex of chi^2 over three stretched ideals. Only
 // well-sampled, well-modulated patterns pin it down; nullopt otherwise.
@@ -332,26 +363,35 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
   }
   M.stage_seconds.push_back({"frames", since(t)});
 
-  // Contrast scale per direction from the coarsest element that allows it.
+  // Contrast scale per direction: the median of the three coarsest
+  // elements that allow it, so that one odd pattern (a mismatch, dust on a
+  // bar) does not scale every other.
   t = Clock::now();
   ReferenceResult& ref = M.reference;
   ref.signature = Signature::albedo;
-  bool have[2] = {false, false};  // [across_x]
+  std::vector<ProfileFit> contrast_fits[2];  // [across_x]
   for (size_t i = 0; i < refs.size(); ++i) {
     const PatternRef& r = refs[i];
     const bool across_x = r.orientation == BarOrientation::vertical_bars;
     const SampledProfile& p = profiles[i];
-    if (have[across_x] || 0.5 / r.lp_per_mm * frames[i].px_per_mm < 3) continue;
-    if (!p.in_view || p.pixels_clipped > p.pixels_used / 50) continue;
+    if (contrast_fits[across_x].size() >= 3 || 0.5 / r.lp_per_mm * frames[i].px_per_mm < 3) continue;
+    if (D.patterns[r.pattern].predicted || !p.in_view || p.pixels_clipped > p.pixels_used / 50) continue;
     ProfileFitOptions fo;
     fo.fit_contrast = true;
     fo.fit_shape = false;
     const ProfileFit fit = fit_profile(p.data, fo);
-    if (!fit.usable || !(std::abs(fit.contrast) > 5 * fit.contrast_sigma)) continue;
-    (across_x ? ref.contrast_x : ref.contrast_y) = fit.contrast;
-    (across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma) = fit.contrast_sigma;
-    (across_x ? ref.chi2_x : ref.chi2_y) = fit.chi2_reduced;
-    have[across_x] = true;
+    if (fit.usable && std::abs(fit.contrast) > 5 * fit.contrast_sigma) contrast_fits[across_x].push_back(fit);
+  }
+  bool have[2] = {false, false};
+  for (int ax = 0; ax < 2; ++ax) {
+    std::vector<ProfileFit>& f = contrast_fits[ax];
+    if (f.empty()) continue;
+    std::sort(f.begin(), f.end(), [](const ProfileFit& a, const ProfileFit& b) { return a.contrast < b.contrast; });
+    const ProfileFit& med = f[f.size() / 2];
+    (ax ? ref.contrast_x : ref.contrast_y) = med.contrast;
+    (ax ? ref.contrast_x_sigma : ref.contrast_y_sigma) = med.contrast_sigma;
+    (ax ? ref.chi2_x : ref.chi2_y) = med.chi2_reduced;
+    have[ax] = true;
   }
   M.stage_seconds.push_back({"reference_patch", since(t)});
   if (!have[0] && !have[1]) {
@@ -402,14 +442,10 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
       const double contrast_sigma = across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma;
       fo.fit_shape = mo.fit_psf_shape;
       std::tie(fo.start_nu0_per_mm, fo.start_beta) = last_lsf[across_x];
-      const ProfileFit fit = fit_profile(sp.data, fo);
-      if (std::getenv("TACTRES_CHART_PROFILE") && D.patterns[r.pattern].predicted) {
-        fmt::print(stderr, "G{}E{} {} usable {} chi2 {} nu0 {} beta {} b0 {} c {} failure {}\n", r.group, r.element,
-                   across_x, fit.usable, fit.chi2_reduced, fit.nu0_per_mm, fit.beta, fit.b0, fo.contrast, fit.failure);
-        for (int b = sp.data.fit_begin; b < sp.data.fit_end; ++b)
-          fmt::print(stderr, "  {:.4f} {:.4f} {:.4f} {}\n", sp.data.u_mean_mm[b], sp.data.value[b],
-                     sp.data.ideal_at(sp.data.u_mean_mm[b]), sp.data.count[b]);
-      }
+      const ProfileData data = D.patterns[r.pattern].predicted
+                                   ? sp.data
+                                   : refine_shift_by_fit(sp.data, fo, 0.5 / r.lp_per_mm);
+      const ProfileFit fit = fit_profile(data, fo);
       if (fit.usable) last_lsf[across_x] = {fit.nu0_per_mm, fit.beta};
       fit_s += since(ts);
       if (!fit.usable) {

@@ -148,6 +148,9 @@ void check_against_truth(const ChartRun& run, const std::string& label, int min_
     std::ofstream f(std::getenv("TACTRES_CHART_DUMP"));
     for (const BarPattern& p : D.patterns)
       f << "P " << p.center_px.x << " " << p.center_px.y << " " << p.period_px << " " << p.bar_dir.x << " " << p.bar_dir.y << "\n";
+    for (const ChartElement& e : D.elements)
+      f << "E " << e.group << " " << e.element << " " << D.patterns[e.h].center_px.x << " " << D.patterns[e.h].center_px.y
+        << " " << D.patterns[e.v].center_px.x << " " << D.patterns[e.v].center_px.y << " " << e.period_px << "\n";
     for (const TruthElement& te : run.truth.elements)
       f << "T " << te.group << " " << te.element << " " << to_string(te.orientation) << " " << te.center_px.x << " "
         << te.center_px.y << " " << te.px_per_bar << " " << te.m << "\n";
@@ -172,7 +175,7 @@ void check_against_truth(const ChartRun& run, const std::string& label, int min_
     if (std::getenv("TACTRES_CHART_DEBUG"))
       MESSAGE("G" << g << "E" << n - 6 * g + 1 << " " << std::string(to_string(e.orientation)) << " " << e.px_per_bar << " px/bar: m "
                   << e.m << " +- " << e.m_sigma << " true " << t->m << " (" << t->px_per_bar << ") "
-                  << std::string(to_string(e.status)) << " centre error "
+                  << std::string(to_string(e.status)) << " chi2 " << e.chi2_reduced << " beta " << e.beta << " centre error "
                   << norm(0.25 * (e.outline_px[0] + e.outline_px[1] + e.outline_px[2] + e.outline_px[3]) - t->center_px)
                   << " px");
   }
@@ -250,6 +253,30 @@ TEST_CASE("chart: negative chart rotated 90 degrees, anchored by --largest-group
   const ChartRun run = render_and_measure(c, dir, "negative90", d);
   CHECK(run.result.detection.light_bars);
   check_against_truth(run, "negative, 90 deg, sigma 1.7 px");
+}
+
+TEST_CASE("chart: rotated 180 degrees and mirrored (seen from behind), no anchor: relative indices") {
+  TempDir dir("chart");
+  ChartScene c;
+  c.view = view_at(34);
+  c.view.view = "through_gel";
+  c.view.roll_deg = 180;
+  const ChartRun run = render_and_measure(c, dir, "mirrored180");
+  CHECK(run.result.detection.anchor == ChartAnchor::none);
+  check_against_truth(run, "mirrored, 180 deg, no anchor");
+}
+
+TEST_CASE("chart: 15 degree perspective, 37 degree roll, 40 dB noise") {
+  TempDir dir("chart");
+  ChartScene c;
+  c.view = view_at(36);
+  c.view.tilt_deg = 15;
+  c.view.tilt_axis_deg = 30;
+  c.view.roll_deg = 37;
+  c.sensor = sensor_40db(11);
+  ChartDetectOptions d;
+  d.largest_group = 0;
+  check_against_truth(render_and_measure(c, dir, "perspective", d), "15 deg tilt, 40 dB");
 }
 
 TEST_CASE("chart: only groups 2-3 in view (zoomed in), limit in group 3, 40 dB noise") {
