@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
@@ -296,6 +297,92 @@ TEST_CASE("chart: only groups 4-5 in view (microscope), limit in group 5") {
   ChartDetectOptions d;
   d.px_per_mm = 330;
   check_against_truth(render_and_measure(c, dir, "zoom45", d), "groups 4-5 at 330 px/mm", 4);
+}
+
+namespace {
+
+// A capture of the whole chart as a phone or a bench camera would take it:
+// uneven light (a diffuser off to one side), cos^4 vignetting, a little
+// noise, then dust specks on the print, drawn into the rendered image.
+ChartRun render_photo(const TempDir& dir, const std::string& name, bool jpeg, const ChartDetectOptions& detect) {
+  ChartScene c;
+  c.view = view_at(36);
+  c.view.roll_deg = -8;
+  Scene s = scene_of(c);
+  s.effects.clear();
+  IlluminationOptions light;
+  light.aperture_width_mm = 12;
+  light.distance_mm = 14;
+  light.aperture_center_mm = {0.2 * chart().width_mm, 0.3 * chart().height_mm};
+  s.effects.emplace_back(light);
+  PsfOptions psf;
+  psf.sigma_px = 2.0;
+  s.effects.emplace_back(psf);
+  s.effects.emplace_back(VignettingEffect{4.0});
+  RenderResult r = render_scene(s, chart(), pinhole_camera());
+  cv::Mat img = r.image.clone();  // float, linear
+  cv::RNG rng(7);
+  for (int k = 0; k < 60; ++k) {
+    const cv::Point p(rng.uniform(0, img.cols), rng.uniform(0, img.rows));
+    cv::circle(img, p, rng.uniform(1, 4), cv::Scalar(0.02), cv::FILLED, cv::LINE_AA);
+  }
+  ChartRun run;
+  if (jpeg) {
+    // 8-bit sRGB, as phones write it: encode, then let the loader decode.
+    cv::Mat srgb(img.size(), CV_8U);
+    for (int y = 0; y < img.rows; ++y)
+      for (int x = 0; x < img.cols; ++x) {
+        const float v = std::clamp(img.at<float>(y, x), 0.f, 1.f);
+        const float e = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1 / 2.4f) - 0.055f;
+        srgb.at<unsigned char>(y, x) = static_cast<unsigned char>(std::lround(255 * e));
+      }
+    run.file = dir.path / (name + ".jpg");
+    write_image(run.file, srgb);
+  } else {
+    cv::Mat noisy = img.clone();
+    cv::Mat noise(img.size(), CV_32F);
+    cv::randn(noise, 0, 0.004);
+    noisy += noise;
+    run.file = dir.path / (name + ".tif");
+    write_image(run.file, noisy);
+  }
+  run.truth = compute_truth(s, chart(), pinhole_camera());
+  ChartMeasureOptions o;
+  o.detect = detect;
+  const LoadedImage loaded = load_image(run.file);
+  if (jpeg) CHECK(loaded.transfer_applied == "srgb");
+  run.result = measure_chart(loaded, o);
+  return run;
+}
+
+}  // namespace
+
+TEST_CASE("chart: uneven light, vignetting, dust specks and noise; digits and the large square are not bars") {
+  TempDir dir("chart");
+  ChartDetectOptions d;
+  d.largest_group = 0;
+  const ChartRun run = render_photo(dir, "photo", false, d);
+  check_against_truth(run, "uneven light, vignetting, dust");
+  // Every measured pattern is a chart element: none on the large square, a
+  // digit or a dust speck (stray triplets stay unpaired and unmeasured).
+  const ChartDetection& D = run.result.detection;
+  for (const ChartElement& e : D.elements)
+    for (int k : {e.h, e.v}) {
+    const BarPattern& p = D.patterns[k];
+    bool on_element = false;
+    for (const TruthElement& te : run.truth.elements)
+      on_element = on_element || norm(te.center_px - p.center_px) < 1.5 * te.px_per_bar;
+    CHECK_MESSAGE(on_element, "a pattern at " << p.center_px.x << "," << p.center_px.y << " is not a chart element");
+    }
+  MESSAGE(D.patterns.size() << " patterns, " << D.elements.size() << " elements (" << D.predicted_elements
+                            << " predicted), " << D.unpaired_patterns << " unpaired patterns");
+}
+
+TEST_CASE("chart: an 8-bit sRGB JPEG (linearised on load)") {
+  TempDir dir("chart");
+  ChartDetectOptions d;
+  d.px_per_mm = 36;
+  check_against_truth(render_photo(dir, "phone", true, d), "8-bit sRGB JPEG");
 }
 
 namespace {
