@@ -44,11 +44,14 @@ struct ChartScene {
   double blur_sigma_px = 2.0;
   Polarity polarity = Polarity::dark_bars_on_light;
   std::optional<SensorOptions> sensor;
+  const TargetLayout* layout = nullptr;  // default: chart(polarity)
+  std::optional<PsfOptions> psf;         // default: Gaussian of blur_sigma_px
 };
 
 Scene scene_of(const ChartScene& c) {
   Scene s = albedo_scene(c.view, c.blur_sigma_px, 3);
   if (c.polarity == Polarity::light_bars_on_dark) std::swap(s.ink_reflectance, s.ground_reflectance);
+  if (c.psf) s.effects.at(0) = *c.psf;
   if (c.sensor) s.effects.emplace_back(*c.sensor);
   return s;
 }
@@ -62,7 +65,7 @@ struct ChartRun {
 ChartRun render_and_measure(const ChartScene& c, const TempDir& dir, const std::string& name,
                             const ChartDetectOptions& detect = {}) {
   const Scene s = scene_of(c);
-  const TargetLayout& L = chart(c.polarity);
+  const TargetLayout& L = c.layout ? *c.layout : chart(c.polarity);
   const RenderResult r = render_scene(s, L, pinhole_camera());
   ChartRun run;
   run.file = dir.path / (name + (r.bits > 0 ? ".png" : ".tif"));
@@ -297,6 +300,25 @@ TEST_CASE("chart: only groups 4-5 in view (microscope), limit in group 5") {
   ChartDetectOptions d;
   d.px_per_mm = 330;
   check_against_truth(render_and_measure(c, dir, "zoom45", d), "groups 4-5 at 330 px/mm", 4);
+}
+
+TEST_CASE("chart: defocus disc, groups 6-7 under a microscope, limit in group 6") {
+  MilStdChartOptions o;
+  o.first_group = 4;
+  o.last_group = 7;
+  static const TargetLayout fine = make_mil_std_chart(o);
+  TempDir dir("chart");
+  ChartScene c;
+  c.layout = &fine;
+  c.view = view_on(fine, pair_center(fine, 6), 700, 0);
+  PsfOptions psf;
+  psf.kind = PsfOptions::defocus_disc;
+  psf.radius_px = 3.4;
+  c.psf = psf;
+  c.sensor = sensor_40db(21);
+  ChartDetectOptions d;
+  d.px_per_mm = 700;
+  check_against_truth(render_and_measure(c, dir, "micro67", d), "groups 6-7 at 700 px/mm, defocus disc 3.4 px, 40 dB", 4);
 }
 
 namespace {
