@@ -41,8 +41,11 @@ Preset preset_from_string(const std::string& s) {
 
 MeasureOptions MeasureOptions::for_preset(Preset p) {
   // What each preset buys (README, "Presets"; figures from `tactres bench`):
-  // fast: half-pixel bins, Gaussian PSF, a light pose model; precise:
-  // eighth-pixel bins and a finely sampled disc outline in the pose model.
+  // fast: whole-pixel bins and a light pose model, still fitting the PSF's
+  // shape (a Gaussian-only fit cost little time but its errors were three
+  // times larger and its error bars covered the truth half the time);
+  // precise: eighth-pixel bins and a finely sampled disc outline in the pose
+  // model.
   struct Settings {
     double bin_px;
     bool fit_psf_shape;
@@ -50,7 +53,7 @@ MeasureOptions MeasureOptions::for_preset(Preset p) {
     double max_bins_per_bar;
   };
   static constexpr Settings kSettings[] = {
-      {0.5, false, 16, 6},     // fast
+      {1.0, true, 16, 6},      // fast
       {0.25, true, 32, 8},     // balanced
       {0.125, true, 96, 16},   // precise
   };
@@ -135,13 +138,15 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   }
 
   auto t = Clock::now();
-  const cv::Mat detection_image = filled_for_detection(lum);
+  // (A copy only when pixels are masked: it costs ~1 ms per megapixel.)
+  const cv::Mat detection_image = cv::checkRange(lum) ? lum : filled_for_detection(lum);
   M.fiducials = find_fiducials(detection_image, layout);
   // A strongly distorting lens bends the disc pattern away from a plane
   // homography. With a lens model, search again on a rectified copy, where
   // the pattern is a homography again; the pose is then fitted through
   // that copy's pinhole, which shares the lens's rays.
   std::optional<CameraModel> search_camera;  // the rectified view's pinhole, if used
+  const FiducialSearchResult direct_search = M.fiducials;
   if (!M.fiducials.found && camera && !camera->is_pinhole()) {
     std::optional<RectifiedSearch> rectified = find_fiducials_rectified(detection_image, layout, *camera);
     if (rectified && rectified->fiducials.found) {
@@ -165,6 +170,13 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   std::optional<CameraModel> fitted;
   if (search_camera) {
     M.pose = fit_pose(*search_camera, discs, po);
+    if (!M.pose.usable) {
+      // The rectified copy's discs gave no pose: answer as the search of
+      // the capture itself did.
+      M.fiducials = direct_search;
+      M.problem = M.fiducials.problem.empty() ? "no target found" : M.fiducials.problem;
+      return M;
+    }
     M.camera_source = camera->source();
     M.distortion_corrected = true;
     // Report the discs where they are in the capture.
@@ -271,8 +283,10 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
           ref.usable = false;
           ref.problem = fmt::format(
               "the capture does not match the layout: the reference patch is not where the layout puts it "
-              "(fit chi^2 {:.0f}); measure with the layout.json of the captured target",
-              std::max(ref.chi2_x, ref.chi2_y));
+              "(fit chi^2 {:.0f}); measure with the layout.json of the captured target{}",
+              std::max(ref.chi2_x, ref.chi2_y),
+              // Without a lens model, distortion moves the patch as a wrong layout would.
+              camera ? "" : ", and give the lens's --camera model if it distorts");
         }
       }
     }
