@@ -153,6 +153,13 @@ std::optional<double> mean_hv(const DesignRow& r) {
   return 0.5 * (*h + *v);
 }
 
+// 1-sigma of mean_hv: the interpolated limits' uncertainties (a discrete
+// limit carries none).
+double mean_hv_sigma(const DesignRow& r) {
+  return 0.5 * std::hypot(r.horizontal.interp_sigma_lp_per_mm.value_or(0.0),
+                          r.vertical.interp_sigma_lp_per_mm.value_or(0.0));
+}
+
 }  // namespace
 
 std::optional<double> OrientationSummary::value_lp_per_mm() const {
@@ -256,12 +263,18 @@ Comparison compare_designs(std::vector<MeasurementRecord> measurements, Measurem
     row.mean_pct_of_reference = percent(row.mean_hv_lp_per_mm, ref.mean_hv_lp_per_mm);
   }
 
-  // Competition ranking by the mean of H and V, best first.
+  // Competition ranking by the mean of H and V, best first. A design is
+  // only counted better when it is better beyond 2 combined sigma: two
+  // designs that the measurements cannot tell apart share a rank, so a
+  // rank never claims more than the error bars do.
   for (DesignRow& row : c.designs) {
     if (!row.mean_hv_lp_per_mm) continue;
     int better = 0;
     for (const DesignRow& other : c.designs)
-      if (other.mean_hv_lp_per_mm && *other.mean_hv_lp_per_mm > *row.mean_hv_lp_per_mm) ++better;
+      if (other.mean_hv_lp_per_mm &&
+          *other.mean_hv_lp_per_mm - *row.mean_hv_lp_per_mm >
+              2 * std::hypot(mean_hv_sigma(row), mean_hv_sigma(other)))
+        ++better;
     row.rank = better + 1;
   }
 

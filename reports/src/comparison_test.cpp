@@ -145,6 +145,23 @@ TEST_CASE("a press without a crossing leaves the group without an interpolated m
   CHECK(*t.horizontal.value_lp_per_mm() == doctest::Approx(4.0));  // the coarsest discrete limit
 }
 
+TEST_CASE("ranks: designs that differ within 2 combined sigma share a rank") {
+  // Means 6.0, 5.9 and 5.5; sigma 0.1 per orientation gives 0.0707 per mean
+  // and 0.2 for 2 combined sigma: A and B are tied, C is worse than both.
+  const Comparison c = compare_designs({record(make("A", 6.0, 6.0), "a.json"), record(make("B", 5.9, 5.9), "b.json"),
+                                        record(make("C", 5.5, 5.5), "c.json")},
+                                       reference());
+  CHECK(*row(c, "A").rank == 1);
+  CHECK(*row(c, "B").rank == 1);
+  CHECK(*row(c, "C").rank == 3);
+  // With tighter error bars the same means are told apart.
+  const Comparison t = compare_designs({record(make("A", 6.0, 6.0, 0.01), "a.json"),
+                                        record(make("B", 5.9, 5.9, 0.01), "b.json")},
+                                       reference());
+  CHECK(*row(t, "A").rank == 1);
+  CHECK(*row(t, "B").rank == 2);
+}
+
 TEST_CASE("ranks: by mean of H and V, ties share a rank; failed and unresolved designs are unranked") {
   HandMeasurement failed = make("F", std::nullopt, std::nullopt);
   failed.usable = false;

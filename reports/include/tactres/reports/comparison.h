@@ -66,7 +66,8 @@ struct DesignRow {
   std::optional<double> mean_hv_lp_per_mm;
   // 100 * mean_hv / the reference's mean_hv.
   std::optional<double> mean_pct_of_reference;
-  // 1 = best, by mean_hv descending; equal means share a rank (1, 2, 2, 4).
+  // 1 = best, by mean_hv descending; designs whose means differ by no more
+  // than 2 combined sigma share a rank (1, 2, 2, 4).
   // Absent for the reference, failed designs, and designs without a mean.
   std::optional<int> rank;
 };
