@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "tactres/metrology/element_grading.h"
 #include "tactres/metrology/profile_sampler.h"
 #include "tactres/metrology/target_view.h"
 #include "tactres/targets/coverage.h"
@@ -423,52 +424,19 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
     e.lp_per_mm = r.lp_per_mm;
     const bool across_x = r.orientation == BarOrientation::vertical_bars;
     e.px_per_bar = 0.5 / r.lp_per_mm * frames[i].px_per_mm;
-    if (!sp.in_view) {
-      e.status = ElementStatus::out_of_view;
-      M.elements.push_back(e);
-      continue;
-    }
-    e.outline_px = sp.outline_px;
-    e.outline_valid = true;
-    if (e.px_per_bar < mo.min_px_per_bar || e.px_per_bar <= 1.0) {
-      e.status = ElementStatus::below_sampling_limit;
-    } else if (sp.pixels_clipped > sp.pixels_used / 50) {
-      e.status = ElementStatus::clipped;
-    } else {
-      const auto ts = Clock::now();
-      ProfileFitOptions fo;
-      fo.signature = Signature::albedo;
-      fo.contrast = across_x ? ref.contrast_x : ref.contrast_y;
-      const double contrast_sigma = across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma;
-      fo.fit_shape = mo.fit_psf_shape;
-      std::tie(fo.start_nu0_per_mm, fo.start_beta) = last_lsf[across_x];
-      const ProfileData data = D.patterns[r.pattern].predicted
-                                   ? sp.data
-                                   : refine_shift_by_fit(sp.data, fo, 0.5 / r.lp_per_mm);
-      const ProfileFit fit = fit_profile(data, fo);
-      if (fit.usable) last_lsf[across_x] = {fit.nu0_per_mm, fit.beta};
-      fit_s += since(ts);
-      if (!fit.usable) {
-        e.status = ElementStatus::fit_failed;
-      } else {
-        const double m = fit.transfer(r.lp_per_mm);
-        const double m_sigma = std::hypot(fit.transfer_sigma(r.lp_per_mm), m * contrast_sigma / std::abs(fo.contrast));
-        e.beta = fit.beta;
-        e.chi2_reduced = fit.chi2_reduced;
-        if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
-          e.status = ElementStatus::fit_failed;
-        } else if (fit.chi2_reduced > mo.aliasing_chi2 && e.px_per_bar < 3.0 &&
-                   fit.residual_rms > 0.5 * std::abs(fo.contrast * fit.b0) * std::max(m, 0.05)) {
-          e.status = ElementStatus::aliased;
-        } else if (m_sigma > mo.max_m_sigma) {
-          e.status = ElementStatus::low_signal;
-        } else {
-          e.status = ElementStatus::ok;
-          e.m = m;
-          e.m_sigma = std::max(m_sigma, 1e-6);
-        }
-      }
-    }
+    ProfileFitOptions fo;
+    fo.signature = Signature::albedo;
+    fo.contrast = across_x ? ref.contrast_x : ref.contrast_y;
+    fo.fit_shape = mo.fit_psf_shape;
+    ProfilePrepare centre;
+    // A predicted pattern is placed by its column, more precisely than its
+    // faint bars could place it.
+    if (!D.patterns[r.pattern].predicted)
+      centre = [w = 0.5 / r.lp_per_mm](const ProfileData& d, const ProfileFitOptions& o) {
+        return refine_shift_by_fit(d, o, w);
+      };
+    fit_s += grade_element(e, sp, fo, across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma, mo, last_lsf[across_x],
+                           centre);
     M.elements.push_back(e);
   }
   M.stage_seconds.push_back({"fits", fit_s});
@@ -478,16 +446,7 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
   // some groups and cuts others, and a cut coarse element says nothing
   // about the finer ones (layout mode, which frames the whole target,
   // counts it as unresolved instead).
-  std::vector<OrientedPoint> pts;
-  for (const ElementResult& r : M.elements)
-    if (r.status != ElementStatus::out_of_view)
-      pts.push_back({r.orientation, {r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok}});
-  const Limits limits = find_limits(pts, mo.criterion);
-  M.horizontal = limits.horizontal;
-  M.vertical = limits.vertical;
-  for (ElementResult& r : M.elements)
-    r.resolved = r.status == ElementStatus::ok &&
-                 is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, mo.criterion);
+  decide_limits(M, mo.criterion, true);
   M.stage_seconds.push_back({"decide", since(t)});
   M.usable = true;
   return out;

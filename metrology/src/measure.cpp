@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
 
+#include "tactres/metrology/element_grading.h"
 #include "tactres/metrology/target_view.h"
 #include "tactres/targets/coverage.h"
 
@@ -317,58 +318,13 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     so.bin_px = std::max(so.bin_px, r.px_per_bar / options.max_bins_per_bar);
     const SampledProfile sp = sample_strip(lum, view, layout, index, strip, so, clip_level);
     sample_s += since(ts);
-    r.outline_px = sp.outline_px;
-    r.outline_valid = sp.in_view;
-    if (!sp.in_view) {
-      r.status = ElementStatus::out_of_view;
-    } else if (r.px_per_bar < options.min_px_per_bar || r.px_per_bar <= 1.0) {
-      // At or beyond Nyquist (<= 1 px per bar) the bars are never resolved,
-      // whatever --min-px-per-bar allows: binning by sub-pixel phase can
-      // still recover the pre-sampling MTF there, but the image shows an
-      // alias, not the bars (DESIGN.md, "Guard").
-      r.status = ElementStatus::below_sampling_limit;
-    } else if (sp.pixels_clipped > sp.pixels_used / 50) {
-      r.status = ElementStatus::clipped;
-    } else {
-      ts = Clock::now();
-      ProfileFitOptions fo;
-      fo.signature = ref.signature;
-      fo.fit_contrast = false;
-      fo.contrast = across_x ? ref.contrast_x : ref.contrast_y;
-      const double contrast_sigma = across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma;
-      fo.fit_shape = options.fit_psf_shape;
-      std::tie(fo.start_nu0_per_mm, fo.start_beta) = last_lsf[across_x];
-      const ProfileFit fit = fit_profile(sp.data, fo);
-      if (fit.usable) last_lsf[across_x] = {fit.nu0_per_mm, fit.beta};
-      fit_s += since(ts);
-      if (!fit.usable) {
-        r.status = ElementStatus::fit_failed;
-      } else {
-        const double m = fit.transfer(e.lp_per_mm);
-        // The patch's contrast error scales the whole signature: m moves
-        // with it to first order (dm/dc ~ -m/c).
-        const double m_sigma = std::hypot(fit.transfer_sigma(e.lp_per_mm), m * contrast_sigma / std::abs(fo.contrast));
-        r.beta = fit.beta;
-        r.chi2_reduced = fit.chi2_reduced;
-        if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
-          r.status = ElementStatus::fit_failed;
-        } else if (fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0 &&
-                   fit.residual_rms > 0.5 * std::abs(fo.contrast * fit.b0) * std::max(m, 0.05)) {
-          // The bars are not where the layout puts them at this sampling:
-          // the image shows another period or bar count. Both tests must
-          // agree: the misfit exceeds the noise, and it is a sizeable share
-          // of the bars' own modulation (a noise-free capture's tiny model
-          // error passes the first test alone).
-          r.status = ElementStatus::aliased;
-        } else if (m_sigma > options.max_m_sigma) {
-          r.status = ElementStatus::low_signal;
-        } else {
-          r.status = ElementStatus::ok;
-          r.m = m;
-          r.m_sigma = std::max(m_sigma, 1e-6);
-        }
-      }
-    }
+    ProfileFitOptions fo;
+    fo.signature = ref.signature;
+    fo.fit_contrast = false;
+    fo.contrast = across_x ? ref.contrast_x : ref.contrast_y;
+    fo.fit_shape = options.fit_psf_shape;
+    fit_s += grade_element(r, sp, fo, across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma, options,
+                           last_lsf[across_x]);
     M.elements.push_back(r);
   }
   M.stage_seconds.push_back({"profiles", sample_s});
@@ -376,15 +332,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
 
   // Decide.
   t = Clock::now();
-  std::vector<OrientedPoint> pts;
-  for (const ElementResult& r : M.elements)
-    pts.push_back({r.orientation, {r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok}});
-  const Limits limits = find_limits(pts, options.criterion);
-  M.horizontal = limits.horizontal;
-  M.vertical = limits.vertical;
-  for (ElementResult& r : M.elements)
-    r.resolved = r.status == ElementStatus::ok &&
-                 is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, options.criterion);
+  decide_limits(M, options.criterion, false);
   M.stage_seconds.push_back({"decide", since(t)});
   M.usable = true;
   return M;

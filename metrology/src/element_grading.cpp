@@ -1,0 +1,79 @@
+#include "tactres/metrology/element_grading.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <tuple>
+
+namespace tactres {
+
+double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
+                     const MeasureOptions& options, std::pair<double, double>& warm_lsf,
+                     const ProfilePrepare& prepare) {
+  r.outline_px = sp.outline_px;
+  r.outline_valid = sp.in_view;
+  if (!sp.in_view) {
+    r.status = ElementStatus::out_of_view;
+    return 0;
+  }
+  if (r.px_per_bar < options.min_px_per_bar || r.px_per_bar <= 1.0) {
+    // At or beyond Nyquist (<= 1 px per bar) the bars are never resolved,
+    // whatever --min-px-per-bar allows: binning by sub-pixel phase can
+    // still recover the pre-sampling MTF there, but the image shows an
+    // alias, not the bars (DESIGN.md, "Guard").
+    r.status = ElementStatus::below_sampling_limit;
+    return 0;
+  }
+  if (sp.pixels_clipped > sp.pixels_used / 50) {
+    r.status = ElementStatus::clipped;
+    return 0;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  std::tie(fo.start_nu0_per_mm, fo.start_beta) = warm_lsf;
+  const ProfileFit fit = prepare ? fit_profile(prepare(sp.data, fo), fo) : fit_profile(sp.data, fo);
+  if (fit.usable) warm_lsf = {fit.nu0_per_mm, fit.beta};
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!fit.usable) {
+    r.status = ElementStatus::fit_failed;
+    return seconds;
+  }
+  const double m = fit.transfer(r.lp_per_mm);
+  // The level step's error scales the whole signature: m moves with it to
+  // first order (dm/dc ~ -m/c).
+  const double m_sigma = std::hypot(fit.transfer_sigma(r.lp_per_mm), m * contrast_sigma / std::abs(fo.contrast));
+  r.beta = fit.beta;
+  r.chi2_reduced = fit.chi2_reduced;
+  if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
+    r.status = ElementStatus::fit_failed;
+  } else if (fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0 &&
+             fit.residual_rms > 0.5 * std::abs(fo.contrast * fit.b0) * std::max(m, 0.05)) {
+    // The bars are not where the geometry puts them at this sampling: the
+    // image shows another period or bar count. Both tests must agree: the
+    // misfit exceeds the noise, and it is a sizeable share of the bars' own
+    // modulation (a noise-free capture's tiny model error passes the first
+    // test alone).
+    r.status = ElementStatus::aliased;
+  } else if (m_sigma > options.max_m_sigma) {
+    r.status = ElementStatus::low_signal;
+  } else {
+    r.status = ElementStatus::ok;
+    r.m = m;
+    r.m_sigma = std::max(m_sigma, 1e-6);
+  }
+  return seconds;
+}
+
+void decide_limits(Measurement& M, const Criterion& criterion, bool skip_out_of_view) {
+  std::vector<OrientedPoint> pts;
+  for (const ElementResult& r : M.elements)
+    if (!skip_out_of_view || r.status != ElementStatus::out_of_view)
+      pts.push_back({r.orientation, {r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok}});
+  const Limits limits = find_limits(pts, criterion);
+  M.horizontal = limits.horizontal;
+  M.vertical = limits.vertical;
+  for (ElementResult& r : M.elements)
+    r.resolved = r.status == ElementStatus::ok &&
+                 is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
+}
+
+}  // namespace tactres
