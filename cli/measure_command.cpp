@@ -60,7 +60,14 @@ std::string limit_text(const Limit& l) {
 
 std::string chart_anchor_text(const ChartDetection& d) {
   switch (d.anchor) {
-    case ChartAnchor::none: return "none";
+    case ChartAnchor::none:
+      return d.arrangement.recognised
+                 ? "none (arrangement recognised but no group label read: the group is known modulo 2 only)"
+                 : "none (arrangement not recognised)";
+    case ChartAnchor::arrangement:
+      return fmt::format("the arrangement ({}group labels read; largest element found = G{}E{})",
+                         d.arrangement.mirrored ? "mirrored; " : "", d.elements.front().group,
+                         d.elements.front().element);
     case ChartAnchor::largest_group:
       return fmt::format("--largest-group (largest element found = G{}E{})", d.elements.front().group,
                          d.elements.front().element);

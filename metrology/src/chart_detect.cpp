@@ -3,11 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "tactres/targets/glyphs.h"
+#include "tactres/targets/mil_std_chart.h"
 
 namespace tactres {
 
@@ -29,6 +33,7 @@ const char* to_string(ChartAnchor a) {
     case ChartAnchor::none: return "none";
     case ChartAnchor::largest_group: return "largest_group";
     case ChartAnchor::px_per_mm: return "px_per_mm";
+    case ChartAnchor::arrangement: return "arrangement";
   }
   return "none";
 }
@@ -176,6 +181,7 @@ std::vector<BarPattern> find_triplets(const std::vector<Bar>& bars, bool light) 
 struct Pairing {
   std::vector<ChartElement> elements;
   int unpaired = 0;
+  std::vector<int> lone;  // the unpaired patterns
 };
 
 Pairing pair_patterns(const std::vector<BarPattern>& P) {
@@ -210,11 +216,230 @@ Pairing pair_patterns(const std::vector<BarPattern>& P) {
     e.period_px = 0.5 * (P[c.h].period_px + P[c.v].period_px);
     out.elements.push_back(e);
   }
-  for (unsigned char u : used) out.unpaired += u ? 0 : 1;
+  for (size_t i = 0; i < used.size(); ++i)
+    if (!used[i]) ++out.unpaired, out.lone.push_back(static_cast<int>(i));
   return out;
 }
 
 int floor_div6(int n) { return n >= 0 ? n / 6 : -((-n + 5) / 6); }
+
+// ---- The standard arrangement (see chart_detect.h) ----
+
+// The arrangement's element positions: groups 0..3 of the generated chart
+// (two nested pairs), so that any step of up to 12 elements from an index
+// in 0..11 stays inside it. Index n = 6 g + e - 1; centre of the H triplet
+// and bar width, mm.
+struct ArrangementModel {
+  std::vector<Vec2> h_center_mm;
+  std::vector<double> bar_width_mm;
+};
+
+const ArrangementModel& arrangement_model() {
+  static const ArrangementModel model = [] {
+    MilStdChartOptions o;
+    o.first_group = 0;
+    o.last_group = 3;
+    const TargetLayout L = make_mil_std_chart(o);
+    ArrangementModel m;
+    m.h_center_mm.resize(24);
+    m.bar_width_mm.resize(24);
+    for (const ElementLayout& e : L.elements)
+      if (e.orientation == BarOrientation::horizontal_bars) {
+        const int n = 6 * e.group + e.element - 1;
+        m.h_center_mm[n] = e.extent_mm().center_mm();
+        m.bar_width_mm[n] = e.bar_width_mm;
+      }
+    return m;
+  }();
+  return model;
+}
+
+// A found element's own frame: chart x along H -> V (the H triplet is left
+// of the V triplet on the chart), chart y (down) perpendicular to it, sign
+// by handedness; unit = the element's bar width in px.
+struct ElementFrame {
+  Vec2 origin_px;  // centre of the H triplet
+  Vec2 ex;
+  double sign_y = 1;  // -1: mirrored
+  double bar_px = 1;
+  Vec2 to_chart(Vec2 q) const {  // px -> bar widths, relative to the origin
+    const Vec2 d = q - origin_px;
+    return (1.0 / bar_px) * Vec2{dot(d, ex), sign_y * dot(d, perp(ex))};
+  }
+  Vec2 to_image(Vec2 c) const { return origin_px + bar_px * (c.x * ex + (sign_y * c.y) * perp(ex)); }
+};
+
+ElementFrame frame_of(const ChartDetection& D, const ChartElement& e, double bar_px, bool mirrored) {
+  ElementFrame f;
+  f.origin_px = D.patterns[e.h].center_px;
+  const Vec2 d = D.patterns[e.v].center_px - f.origin_px;
+  f.ex = (1.0 / std::max(norm(d), 1e-9)) * d;
+  f.sign_y = mirrored ? -1 : 1;
+  f.bar_px = bar_px;
+  return f;
+}
+
+// Phase (index of relative index 0, modulo 12) and handedness: the
+// hypothesis under which the most steps between found elements (up to 12
+// indices apart) land where the arrangement puts them. `bar_px(i)` is the
+// bar width of element i from the series (not its binarised period, which
+// blur overstates).
+template <class BarPx>
+void recognise_arrangement(ChartDetection& D, const BarPx& bar_px) {
+  const ArrangementModel& M = arrangement_model();
+  auto& A = D.arrangement;
+  struct Hyp {
+    int phase;
+    bool mirrored;
+    int matched = 0, checked = 0;
+  };
+  std::vector<Hyp> hyps;
+  for (int p = 0; p < 12; ++p)
+    for (bool mirrored : {false, true}) {
+      Hyp h{p, mirrored};
+      for (size_t i = 0; i < D.elements.size(); ++i) {
+        const ChartElement& a = D.elements[i];
+        const ElementFrame f = frame_of(D, a, bar_px(a), mirrored);
+        const int na = a.relative_index + p, base = na - na % 12;
+        for (size_t j = 0; j < D.elements.size(); ++j) {
+          const ChartElement& b = D.elements[j];
+          const int dk = b.relative_index - a.relative_index;
+          if (dk < 1 || dk > 12) continue;
+          const int ma = na - base, mb = ma + dk;
+          const Vec2 want = (1.0 / M.bar_width_mm[ma]) * (M.h_center_mm[mb] - M.h_center_mm[ma]);
+          const Vec2 got = f.to_chart(D.patterns[b.h].center_px);
+          ++h.checked;
+          if (norm(got - want) <= 0.15 * norm(want) + 2.0) ++h.matched;
+        }
+      }
+      hyps.push_back(h);
+    }
+  std::sort(hyps.begin(), hyps.end(), [](const Hyp& a, const Hyp& b) { return a.matched > b.matched; });
+  const Hyp& best = hyps.front();
+  A.steps_checked = best.checked;
+  A.steps_matched = best.matched;
+  const int runner_up = hyps.size() > 1 ? hyps[1].matched : 0;
+  if (best.checked < 4 || best.matched < 4 || best.matched < 0.8 * best.checked) {
+    A.note = fmt::format("arrangement not recognised: {} of {} steps between the elements found fit the standard "
+                         "arrangement at best",
+                         best.matched, best.checked);
+    return;
+  }
+  if (best.matched - runner_up < 2) {
+    A.note = fmt::format("arrangement not recognised: the elements found fit it in more than one way ({} and {} "
+                         "of {} steps); too little of the chart is in view",
+                         best.matched, runner_up, best.checked);
+    return;
+  }
+  A.recognised = true;
+  A.phase = best.phase;
+  A.mirrored = best.mirrored;
+}
+
+// How well the label `text` (seven-segment glyphs, as the chart draws
+// them) explains the image in the box `box` (element bar widths, in frame
+// f): the residual sum of squares of value = a + b ink, and b. The ink is
+// the glyphs' pixel coverage blurred by a Gaussian, at the blur (0..4 px)
+// that fits best, so that a soft image is read as well as a sharp one.
+struct LabelFit {
+  double sse = 1e300, slope = 0, r2 = 0;
+  int n = 0;
+};
+
+LabelFit fit_label(const cv::Mat& img, const ElementFrame& f, const std::string& text, Vec2 origin, double height,
+                   const RectMm& box) {
+  std::vector<RectMm> rects;
+  const double w = 0.6 * height, t = 0.2 * height, gap = 0.3 * height;
+  double x = origin.x;
+  for (char c : text) {
+    append_glyph(c, {x, origin.y}, w, height, t, rects);
+    x += w + gap;
+  }
+  // The box's image bounds, with room for the blur.
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (Vec2 c : {Vec2{box.x0, box.y0}, Vec2{box.x1, box.y0}, Vec2{box.x0, box.y1}, Vec2{box.x1, box.y1}}) {
+    const Vec2 q = f.to_image(c);
+    x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+  }
+  LabelFit out;
+  if (x0 < 0 || y0 < 0 || x1 > img.cols - 1 || y1 > img.rows - 1) return out;  // not fully in view
+  constexpr int kPad = 12;
+  const int ix0 = static_cast<int>(std::floor(x0)) - kPad, iy0 = static_cast<int>(std::floor(y0)) - kPad;
+  const int nx = static_cast<int>(std::ceil(x1)) + kPad - ix0 + 1, ny = static_cast<int>(std::ceil(y1)) + kPad - iy0 + 1;
+  cv::Mat ink(ny, nx, CV_32F, cv::Scalar(0));
+  cv::Mat inside(ny, nx, CV_8U, cv::Scalar(0));
+  for (int r = 0; r < ny; ++r)
+    for (int c = 0; c < nx; ++c) {
+      const double px = ix0 + c, py = iy0 + r;
+      const Vec2 q0 = f.to_chart({px, py});
+      inside.at<unsigned char>(r, c) = q0.x >= box.x0 && q0.x <= box.x1 && q0.y >= box.y0 && q0.y <= box.y1;
+      double cover = 0;  // 3 x 3 samples a pixel
+      for (int sy = -1; sy <= 1; ++sy)
+        for (int sx = -1; sx <= 1; ++sx) {
+          const Vec2 q = f.to_chart({px + sx / 3.0, py + sy / 3.0});
+          for (const RectMm& rr : rects)
+            if (q.x >= rr.x0 && q.x < rr.x1 && q.y >= rr.y0 && q.y < rr.y1) {
+              cover += 1.0 / 9;
+              break;
+            }
+        }
+      ink.at<float>(r, c) = static_cast<float>(cover);
+    }
+  for (double sigma : {0.0, 1.0, 2.0, 3.0, 4.0}) {
+    cv::Mat blurred = ink;
+    if (sigma > 0) cv::GaussianBlur(ink, blurred, {0, 0}, sigma);
+    double s0 = 0, s1 = 0, s11 = 0, sv = 0, svv = 0, s1v = 0;
+    for (int r = 0; r < ny; ++r)
+      for (int c = 0; c < nx; ++c) {
+        if (!inside.at<unsigned char>(r, c)) continue;
+        const double k = blurred.at<float>(r, c), v = img.at<float>(iy0 + r, ix0 + c);
+        s0 += 1, s1 += k, s11 += k * k, sv += v, svv += v * v, s1v += k * v;
+      }
+    const double det = s0 * s11 - s1 * s1;
+    if (s0 < 20 || !(det > 1e-9 * s0 * s0)) continue;
+    const double b = (s0 * s1v - s1 * sv) / det, a = (sv - b * s1) / s0;
+    const double tss = svv - sv * sv / s0, sse = std::max(0.0, svv - a * sv - b * s1v);
+    if (sse < out.sse) {
+      out.sse = sse;
+      out.slope = b;
+      out.r2 = tss > 0 ? 1 - sse / tss : 0;
+      out.n = static_cast<int>(s0);
+    }
+  }
+  return out;
+}
+
+// The group number printed above the column that starts with element `e`
+// (index n modulo 12 = 1: even group's element 2, top of the left column;
+// 6: odd group's element 1, top of the right column): the candidate of the
+// known parity whose digits explain the image clearly best, or nullopt.
+std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D, const ChartElement& e, int n_mod12,
+                                    int parity_group, double bar_px) {
+  const ElementFrame f = frame_of(D, e, bar_px, D.arrangement.mirrored);
+  using namespace mil_std;
+  // In bar widths of element e, from its H-triplet centre: the block's
+  // top-left corner is (-(kHX + 2.5), -2.5); the pair's label stands 4 W
+  // above it, W bar widths of the even group's element 1, 2.5 W tall (the
+  // odd group's label half that).
+  const double W = n_mod12 == 1 ? std::exp2(1.0 / 6) : 2.0;
+  const double height = n_mod12 == 1 ? 2.5 * W : 1.25 * W;
+  const Vec2 origin{-(kHX + 2.5), -2.5 - 4 * W};
+  const RectMm box{origin.x - 0.1 * height, origin.y - 0.1 * height, origin.x + 2.5 * height,
+                   origin.y + 1.1 * height};
+  if (0.2 * height * bar_px < 1.5) return std::nullopt;  // strokes under 1.5 px: not legible
+  const double ink_sign = D.light_bars ? 1 : -1;
+  std::vector<std::pair<LabelFit, int>> fits;
+  for (int g = -10; g <= 12; ++g) {
+    if (((g - parity_group) % 2 + 2) % 2 != 0) continue;
+    const LabelFit lf = fit_label(img, f, std::to_string(g), origin, height, box);
+    if (lf.n == 0) return std::nullopt;
+    fits.push_back({lf, g});
+  }
+  std::sort(fits.begin(), fits.end(), [](const auto& a, const auto& b) { return a.first.sse < b.first.sse; });
+  const LabelFit& best = fits[0].first;
+  if (best.slope * ink_sign <= 0 || best.r2 < 0.5 || !(best.sse < 0.5 * fits[1].first.sse)) return std::nullopt;
+  return fits[0].second;
+}
 
 // See ChartDetection::predicted_elements.
 void predict_column_ends(ChartDetection& D) {
@@ -222,14 +447,30 @@ void predict_column_ends(ChartDetection& D) {
   std::map<int, size_t> by_index;
   for (size_t i = 0; i < D.elements.size(); ++i) by_index[D.elements[i].relative_index] = i;
   std::vector<ChartElement> added;
+  const bool anchored = D.anchor != ChartAnchor::none;
   for (const auto& [k, i] : by_index) {
-    if (by_index.count(k + 1) || !by_index.count(k - 1) || !by_index.count(k - 2)) continue;
-    const ChartElement &e0 = D.elements[by_index[k - 2]], &e1 = D.elements[by_index[k - 1]], &e2 = D.elements[i];
-    if (D.anchor != ChartAnchor::none && e2.element == 6) continue;  // the group's column ends here
-    const Vec2 c0 = D.patterns[e0.h].center_px, c1 = D.patterns[e1.h].center_px, c2 = D.patterns[e2.h].center_px;
-    const Vec2 d01 = c1 - c0, d12 = c2 - c1;
-    // One column: the second step is the first shrunk by r, in the same direction.
-    if (norm(d12 - r * d01) > 0.1 * norm(d12)) continue;
+    if (by_index.count(k + 1) || !by_index.count(k - 1)) continue;
+    const ChartElement &e1 = D.elements[by_index[k - 1]], &e2 = D.elements[i];
+    if (anchored && e2.element == 6) continue;  // the group's column ends here
+    const Vec2 c1 = D.patterns[e1.h].center_px, c2 = D.patterns[e2.h].center_px;
+    const Vec2 d12 = c2 - c1;
+    if (!anchored) {
+      // One column: three in a row, the second step the first shrunk by r,
+      // in the same direction.
+      if (!by_index.count(k - 2)) continue;
+      const Vec2 c0 = D.patterns[D.elements[by_index[k - 2]].h].center_px;
+      if (norm(d12 - r * (c1 - c0)) > 0.1 * norm(d12)) continue;
+    } else {
+      // Two in a row are one column only when the element numbers say so
+      // (anchored): an even group's element 1 stands apart, at the lower
+      // right; elements 2..6, and an odd group's 1..6, are one column.
+      const bool even = ((e2.group % 2) + 2) % 2 == 0;
+      if (e1.group != e2.group || (even && e1.element == 1)) continue;
+      // And the step is a column step: about (5 + 2.5) bar widths of e1
+      // across its bars' length, i.e. along the H triplet's bars' normal.
+      const double bar = 0.5 * e1.period_px;
+      if (std::abs(norm(d12) / bar - (5 + mil_std::kColumnGap)) > 1.5) continue;
+    }
     // Anchored: on to the group's element 6 (the finer ones are the
     // measured ones' neighbours, so they are modelled too); unanchored, the
     // column's end is unknown: one step.
@@ -315,6 +556,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   Pairing& pairing = D.light_bars ? el : ed;
   D.unpaired_patterns = pairing.unpaired;
   std::vector<ChartElement> elements = std::move(pairing.elements);
+  double separation_periods = 3.5;  // H-to-V centre distance in periods: the chart's median
   // Every element of a chart has the same layout: the H-to-V separation in
   // periods is one number (3.5 on the generated chart). A pair far from the
   // chart's median is two patterns of different elements.
@@ -326,6 +568,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
     for (const ChartElement& e : elements) seps.push_back(separation(e));
     std::nth_element(seps.begin(), seps.begin() + seps.size() / 2, seps.end());
     const double median = seps[seps.size() / 2];
+    separation_periods = median;
     std::erase_if(elements, [&](const ChartElement& e) { return std::abs(separation(e) / median - 1) > 0.12; });
   }
   if (elements.empty()) {
@@ -407,12 +650,26 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
         if (cost < best_cost - 1e-12) best_cost = cost, best_g = g;
       }
   }
+  // A gradient must earn its place: with a dozen elements, some gradient
+  // always rounds the noisy periods a little closer to integers, and a
+  // spurious one can shift an index by one between elements far apart in
+  // the image. A real tilt lowers the misfit many times over (15 degrees:
+  // 0.26 -> 0.014); noise and blur-biased periods, by up to 2.7 times
+  // (a 4.3 px defocus disc: 0.047 -> 0.0175, with a wrong index). A
+  // gradient is kept when it lowers the misfit 4 times or more.
+  {
+    std::vector<ChartElement> flat;
+    const double cost0 = assign({0, 0}, flat);
+    if (!(best_cost < 0.25 * cost0)) best_g = {0, 0};
+  }
   assign(best_g, kept);
   auto level = [&](const ChartElement& e) {
     return std::log(e.period_px) + e.relative_index * std::log(2.0) / 6 - dot(best_g, position(e));
   };
   // A well-sampled element whose period does not fit its index under the
-  // field is a mismatch (more than half a step off).
+  // field is a mismatch (more than 3/4 of a step off; blur overstates the
+  // binarised period of the finest of them by up to 2/3 of a step, e.g. a
+  // 4.3 px defocus disc on an 8 px period).
   {
     std::vector<double> levels;
     for (const ChartElement& e : kept)
@@ -421,7 +678,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
       std::nth_element(levels.begin(), levels.begin() + levels.size() / 2, levels.end());
       const double c0 = levels[levels.size() / 2];
       std::erase_if(kept, [&](const ChartElement& e) {
-        return e.period_px >= 8 && std::abs(level(e) - c0) > 0.5 * std::log(2.0) / 6;
+        return e.period_px >= 8 && std::abs(level(e) - c0) > 0.75 * std::log(2.0) / 6;
       });
     }
   }
@@ -433,6 +690,21 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   }
   const int min_index = kept.front().relative_index;
   for (ChartElement& e : kept) e.relative_index -= min_index;
+  // An element's bar width from the series and the scale field (the
+  // binarised period of a blurred fine pattern is too large).
+  double level0 = 0;
+  {
+    std::vector<double> levels;
+    for (const ChartElement& e : kept)
+      if (e.period_px >= 8) levels.push_back(level(e));
+    if (levels.empty())
+      for (const ChartElement& e : kept) levels.push_back(level(e));
+    std::nth_element(levels.begin(), levels.begin() + levels.size() / 2, levels.end());
+    level0 = levels[levels.size() / 2];
+  }
+  auto bar_px_of = [&](const ChartElement& e) {
+    return 0.5 * std::exp(level0 + dot(best_g, position(e)) - e.relative_index * std::log(2.0) / 6);
+  };
 
   // The anchor.
   if (options.px_per_mm) {
@@ -451,9 +723,47 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   } else {
     D.largest_index = 0;
     D.anchor = ChartAnchor::none;
-    D.anchor_description =
-        "none: groups and elements are relative to the largest element found, which is called group 0 element 1, "
-        "and lp/mm are relative to its frequency; give --largest-group or --px-per-mm for absolute values";
+    const std::string relative =
+        "groups and elements are relative to the largest element found, which is called group 0 element 1, and "
+        "lp/mm are relative to its frequency; give --largest-group or --px-per-mm for absolute values";
+    // The arrangement: the index modulo 12 and the handedness from the
+    // elements' positions, the group from the labels (chart_detect.h).
+    D.elements = kept;
+    recognise_arrangement(D, bar_px_of);
+    auto& A = D.arrangement;
+    if (A.recognised) {
+      std::optional<int> shift;  // in pairs of groups (12 indices)
+      bool agree = true;
+      for (const ChartElement& e : kept) {
+        const int n = e.relative_index + A.phase, n12 = n % 12;
+        if (n12 != 1 && n12 != 6) continue;  // the tops of the columns, under the labels
+        const int model_group = n / 6;
+        const auto g = read_group_label(img, D, e, n12, model_group, bar_px_of(e));
+        if (!g) continue;
+        const int s = (*g - model_group) / 2;
+        ++A.labels_read;
+        if (shift && *shift != s) agree = false;
+        shift = s;
+      }
+      const std::string known = fmt::format(
+          "the standard arrangement is recognised ({} of {} steps between elements fit it{}): it fixes each element's number and its "
+          "group's parity",
+          A.steps_matched, A.steps_checked, A.mirrored ? "; mirrored" : "");
+      if (shift && agree) {
+        D.largest_index = A.phase + 12 * *shift;
+        D.anchor = ChartAnchor::arrangement;
+        A.note = known + fmt::format(", and {} group label(s) read from the image fix the group", A.labels_read);
+        D.anchor_description = "arrangement: " + A.note;
+      } else {
+        A.labels_read = shift ? A.labels_read : 0;
+        A.note = known + (shift ? ", but the group labels read disagree"
+                                : ", but no group label could be read, and nested pairs repeat every 2 groups, so "
+                                  "the group is known modulo 2 only");
+        D.anchor_description = "none (" + A.note + "): " + relative;
+      }
+    } else {
+      D.anchor_description = "none (" + A.note + "): " + relative;
+    }
   }
   for (ChartElement& e : kept) {
     const int n = D.largest_index + e.relative_index;
@@ -462,6 +772,57 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   }
   D.elements = std::move(kept);
   predict_column_ends(D);
+
+  // Partial elements (ChartElement::partial): a lone, well-sampled pattern
+  // whose period falls on the series at an index no element holds. Its
+  // orientation on the chart follows from the nearest complete element
+  // (chart x runs from an H triplet to its V partner); its partner would
+  // stand `separation_periods` away along chart x.
+  {
+    std::vector<int> taken;
+    for (const ChartElement& e : D.elements) taken.push_back(e.relative_index);
+    const double step = std::log(2.0) / 6;
+    for (int k : pairing.lone) {
+      const BarPattern& p = D.patterns[k];
+      if (p.period_px < 4) continue;  // a fine pattern's binarised period is not reliable enough to index it
+      const Vec2 pos{(p.center_px.x - 0.5 * img.cols) / half, (p.center_px.y - 0.5 * img.rows) / half};
+      const double x = (level0 + dot(best_g, pos) - std::log(p.period_px)) / step;
+      const int index = static_cast<int>(std::lround(x));
+      if (std::abs(x - index) > 0.3 || index < -6 || std::count(taken.begin(), taken.end(), index)) continue;
+      const ChartElement* near = nullptr;
+      double near_d = 1e300;
+      for (const ChartElement& e : D.elements) {
+        if (D.patterns[e.h].predicted) continue;
+        const double d = norm(D.patterns[e.h].center_px - p.center_px);
+        if (d < near_d) near_d = d, near = &e;
+      }
+      if (!near) continue;
+      const Vec2 d = D.patterns[near->v].center_px - D.patterns[near->h].center_px;
+      const Vec2 ex = (1.0 / norm(d)) * d;
+      const bool is_h = std::abs(dot(p.bar_dir, ex)) > std::cos(30 * M_PI / 180);
+      // Where the missing pattern would be, with its strip's margin.
+      const Vec2 partner = p.center_px + ((is_h ? 1.0 : -1.0) * separation_periods * p.period_px) * ex;
+      const double r = 2.0 * p.period_px;
+      const bool outside = partner.x - r < 0 || partner.y - r < 0 || partner.x + r > img.cols - 1 ||
+                           partner.y + r > img.rows - 1;
+      ChartElement e;
+      (is_h ? e.h : e.v) = k;
+      e.period_px = p.period_px;
+      e.relative_index = index;
+      const int n = D.largest_index + index;
+      e.group = floor_div6(n);
+      e.element = n - 6 * e.group + 1;
+      e.partial = outside ? ChartElement::Partial::partner_out_of_view : ChartElement::Partial::partner_not_found;
+      e.partial_reason = fmt::format("only the {} pattern was found; the {} pattern {}", is_h ? "horizontal-bar" : "vertical-bar",
+                                     is_h ? "vertical-bar" : "horizontal-bar",
+                                     outside ? "lies outside the image (the element is partly out of view)"
+                                             : "is in the image but was not found there");
+      taken.push_back(index);
+      D.partial.push_back(e);
+    }
+    std::sort(D.partial.begin(), D.partial.end(),
+              [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+  }
   D.found = true;
   return D;
 }

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <optional>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -379,7 +380,7 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
     if (D.patterns[r.pattern].predicted || !p.in_view || p.pixels_clipped > p.pixels_used / 50) continue;
     ProfileFitOptions fo;
     fo.fit_contrast = true;
-    fo.fit_shape = false;
+    fo.fit_shape = mo.fit_psf_shape;  // a fixed Gaussian would put a heavy-tailed PSF's low-frequency loss into the level step
     const ProfileFit fit = fit_profile(p.data, fo);
     if (fit.usable && std::abs(fit.contrast) > 5 * fit.contrast_sigma) contrast_fits[across_x].push_back(fit);
   }
@@ -447,6 +448,25 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
   // about the finer ones (layout mode, which frames the whole target,
   // counts it as unresolved instead).
   decide_limits(M, mo.criterion, true);
+  // Partial elements: a status, not a guess (ChartElement::partial). They
+  // were not measured, so they take no part in the limits (added after the
+  // decision) and are never resolved.
+  for (const ChartElement& ce : D.partial) {
+    for (BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+      ElementResult e;
+      e.group = ce.group;
+      e.element = ce.element;
+      e.orientation = o;
+      e.lp_per_mm = usaf_lp_per_mm(ce.group, ce.element);
+      e.px_per_bar = 0.5 * ce.period_px;
+      e.status = ce.partial == ChartElement::Partial::partner_out_of_view ? ElementStatus::out_of_view
+                                                                          : ElementStatus::fit_failed;
+      M.elements.push_back(e);
+    }
+  }
+  std::stable_sort(M.elements.begin(), M.elements.end(), [](const ElementResult& a, const ElementResult& b) {
+    return std::tuple(a.group, a.element) < std::tuple(b.group, b.element);
+  });
   M.stage_seconds.push_back({"decide", since(t)});
   M.usable = true;
   return out;
@@ -464,6 +484,22 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
   j["elements_found"] = d.elements.size();
   j["unpaired_patterns"] = d.unpaired_patterns;
   j["predicted_elements"] = d.predicted_elements;
+  const auto& a = d.arrangement;
+  if (a.steps_checked > 0 || !a.note.empty())
+    j["arrangement"] = {{"recognised", a.recognised},
+                        {"mirrored", a.recognised ? nlohmann::json(a.mirrored) : nlohmann::json()},
+                        {"steps_checked", a.steps_checked},
+                        {"steps_matched", a.steps_matched},
+                        {"group_labels_read", a.labels_read},
+                        {"note", a.note}};
+  j["partial_elements"] = nlohmann::json::array();
+  for (const ChartElement& e : d.partial)
+    j["partial_elements"].push_back(
+          {{"group", e.group},
+           {"element", e.element},
+           {"found", e.h >= 0 ? "horizontal_bars" : "vertical_bars"},
+           {"status", e.partial == ChartElement::Partial::partner_out_of_view ? "out_of_view" : "fit_failed"},
+           {"reason", e.partial_reason}});
   if (!d.elements.empty()) {
     const ChartElement& e = d.elements.front();
     j["largest_element"] = {{"group", e.group}, {"element", e.element}, {"period_px", e.period_px}};

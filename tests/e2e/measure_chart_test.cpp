@@ -259,15 +259,50 @@ TEST_CASE("chart: negative chart rotated 90 degrees, anchored by --largest-group
   check_against_truth(run, "negative, 90 deg, sigma 1.7 px");
 }
 
-TEST_CASE("chart: rotated 180 degrees and mirrored (seen from behind), no anchor: relative indices") {
+TEST_CASE("chart: rotated 180 degrees and mirrored (seen from behind), no hint: anchored by the arrangement") {
   TempDir dir("chart");
   ChartScene c;
   c.view = view_at(34);
   c.view.view = "through_gel";
   c.view.roll_deg = 180;
   const ChartRun run = render_and_measure(c, dir, "mirrored180");
-  CHECK(run.result.detection.anchor == ChartAnchor::none);
-  check_against_truth(run, "mirrored, 180 deg, no anchor");
+  const ChartDetection& D = run.result.detection;
+  CAPTURE(D.anchor_description);
+  CHECK(D.anchor == ChartAnchor::arrangement);  // check_against_truth then requires the true groups
+  CHECK(D.arrangement.recognised);
+  CHECK(D.arrangement.mirrored);
+  CHECK(D.arrangement.labels_read >= 1);
+  check_against_truth(run, "mirrored, 180 deg, anchor: arrangement");
+}
+
+TEST_CASE("chart: a direct view with no hint is anchored by the arrangement, not mirrored") {
+  TempDir dir("chart");
+  ChartScene c;
+  c.view = view_at(36);
+  c.view.roll_deg = 20;
+  const ChartRun run = render_and_measure(c, dir, "direct-arrangement");
+  const ChartDetection& D = run.result.detection;
+  CAPTURE(D.anchor_description);
+  CHECK(D.anchor == ChartAnchor::arrangement);
+  CHECK_FALSE(D.arrangement.mirrored);
+  check_against_truth(run, "direct, 20 deg, anchor: arrangement");
+}
+
+TEST_CASE("chart: another arrangement (the project's packed target) is not taken for MIL-STD-150A: anchor none") {
+  TempDir dir("chart");
+  ChartScene c;
+  c.view = view_at(30);
+  c.layout = &default_layout();
+  const ChartRun run = render_and_measure(c, dir, "packed");
+  const ChartDetection& D = run.result.detection;
+  REQUIRE(D.found);
+  CAPTURE(D.arrangement.note);
+  CHECK(D.elements.size() >= 8);  // enough elements that the arrangement could have been tested
+  CHECK_FALSE(D.arrangement.recognised);
+  CHECK(D.anchor == ChartAnchor::none);
+  CHECK(D.anchor_description.find("arrangement not recognised") != std::string::npos);
+  CHECK(D.elements.front().group == 0);
+  CHECK(D.elements.front().element == 1);
 }
 
 TEST_CASE("chart: 15 degree perspective, 37 degree roll, 40 dB noise") {
@@ -319,6 +354,116 @@ TEST_CASE("chart: defocus disc, groups 6-7 under a microscope, limit in group 6"
   ChartDetectOptions d;
   d.px_per_mm = 700;
   check_against_truth(render_and_measure(c, dir, "micro67", d), "groups 6-7 at 700 px/mm, defocus disc 3.4 px, 40 dB", 4);
+}
+
+// The groups 4..7 chart, for views under a microscope.
+const TargetLayout& fine_chart() {
+  static const TargetLayout fine = [] {
+    MilStdChartOptions o;
+    o.first_group = 4;
+    o.last_group = 7;
+    return make_mil_std_chart(o);
+  }();
+  return fine;
+}
+
+// The true limit of a run is in `group` for both orientations (so that a
+// case claims what it covers).
+void check_true_limit_group(const ChartRun& run, int group) {
+  const Limits t = visible_truth_limits(run.truth, Criterion{});
+  CHECK(t.horizontal.group == group);
+  CHECK(t.vertical.group == group);
+}
+
+TEST_CASE("chart: defocus disc, groups 2-3 at 80 px/mm, limit in group 3, no hint") {
+  TempDir dir("chart");
+  ChartScene c;
+  c.view = view_on(chart(), pair_center(chart(), 2), 80, 12);
+  PsfOptions psf;
+  psf.kind = PsfOptions::defocus_disc;
+  psf.radius_px = 4.3;
+  c.psf = psf;
+  c.sensor = sensor_40db(5);
+  const ChartRun run = render_and_measure(c, dir, "defocus23");
+  check_true_limit_group(run, 3);
+  check_against_truth(run, "groups 2-3 at 80 px/mm, defocus disc 4.3 px, 40 dB", 4);
+}
+
+TEST_CASE("chart: diffraction (f/28), groups 4-5 at 200 px/mm, limit in group 4, no hint") {
+  TempDir dir("chart");
+  ChartScene c;
+  c.view = view_on(chart(), pair_center(chart(), 4), 200, -25);
+  PsfOptions psf;
+  psf.kind = PsfOptions::diffraction;
+  psf.f_number = 28;
+  psf.wavelength_um = 0.55;
+  psf.pixel_pitch_um = 2.0;
+  c.psf = psf;
+  c.sensor = sensor_40db(9);
+  const ChartRun run = render_and_measure(c, dir, "diffraction45");
+  check_true_limit_group(run, 4);
+  check_against_truth(run, "groups 4-5 at 200 px/mm, diffraction f/28, 40 dB", 4);
+}
+
+TEST_CASE("chart: groups 6-7 at 1000 px/mm, Gaussian 2 px, limit in group 7") {
+  TempDir dir("chart");
+  ChartScene c;
+  c.layout = &fine_chart();
+  c.view = view_on(fine_chart(), pair_center(fine_chart(), 6), 1000, 0);
+  c.blur_sigma_px = 2.0;
+  c.sensor = sensor_40db(31);
+  ChartDetectOptions d;
+  d.px_per_mm = 1000;
+  const ChartRun run = render_and_measure(c, dir, "micro67-1000", d);
+  check_true_limit_group(run, 7);
+  check_against_truth(run, "groups 6-7 at 1000 px/mm, Gaussian 2 px, 40 dB", 4);
+}
+
+TEST_CASE("chart: elements cut by the image edge get a status, never a measurement") {
+  TempDir dir("chart");
+  ChartScene c;
+  // The right image edge at chart x = 18.75 mm: between the H and V
+  // triplets of group 1's coarse elements.
+  c.view = view_on(chart(), {18.75 - 639.5 / 36, 0.5 * chart().height_mm}, 36, 0);
+  ChartDetectOptions d;
+  d.px_per_mm = 36;
+  const ChartRun run = render_and_measure(c, dir, "cut", d);
+  const ChartDetection& D = run.result.detection;
+  const Measurement& M = run.result.measurement;
+  REQUIRE(D.found);
+  REQUIRE(M.usable);
+  // Elements whose H triplet is in view and whose V triplet is not.
+  int cut = 0;
+  for (const TruthElement& te : run.truth.elements) {
+    if (te.orientation != BarOrientation::horizontal_bars || !te.in_view || te.px_per_bar < 3) continue;
+    const TruthElement* tv = truth_for(run.truth, te.group, te.element, BarOrientation::vertical_bars);
+    if (!tv || tv->in_view) continue;
+    ++cut;
+    CAPTURE(te.group);
+    CAPTURE(te.element);
+    int reported = 0;
+    for (const ElementResult& e : M.elements) {
+      if (e.group != te.group || e.element != te.element) continue;
+      ++reported;
+      CHECK(e.status == ElementStatus::out_of_view);
+      CHECK_FALSE(e.resolved);
+    }
+    CHECK(reported == 2);  // both orientations, graded
+  }
+  CHECK(cut >= 2);
+  CHECK(D.partial.size() >= 2);
+  const nlohmann::json j = chart_to_json(D);
+  REQUIRE(j["partial_elements"].size() == D.partial.size());
+  for (const auto& p : j["partial_elements"]) {
+    CHECK(p["status"] == "out_of_view");
+    CHECK(p["found"] == "horizontal_bars");
+    CHECK(p["reason"].get<std::string>().find("outside the image") != std::string::npos);
+  }
+  // The elements in full view still give the true limit.
+  const Limits truth = visible_truth_limits(run.truth, Criterion{});
+  CHECK(discrete_limit_agrees(M.horizontal, truth.horizontal));
+  CHECK(discrete_limit_agrees(M.vertical, truth.vertical));
+  MESSAGE(cut << " elements cut by the edge, " << D.partial.size() << " reported as partial");
 }
 
 namespace {

@@ -21,8 +21,28 @@
 //    2^(1/6) in period.
 // 5. Anchor: the absolute group comes from --px-per-mm (the largest
 //    element's frequency follows from its period), or from --largest-group
-//    (the largest element found is element --largest-element of it); without
-//    either, indices stay relative and the result says so.
+//    (the largest element found is element --largest-element of it), or,
+//    without either, from the arrangement (see below).
+//    When none of them fixes the group, indices stay relative and the
+//    result says so, and why.
+//
+// What the arrangement can and cannot tell (docs/CHART.md, "Anchor"):
+// - The positions of the elements relative to each other fix the index
+//   modulo 12, that is each element's number (1..6) and its group's parity:
+//   odd groups run 1..6 down the right column, even groups 2..6 down the
+//   left with element 1 at the lower right, and the steps between
+//   consecutive elements (short steps down a column, jumps between columns)
+//   repeat with period 12 and have no other symmetry. They also fix the
+//   handedness (mirrored or not), because a column runs downwards.
+// - They cannot fix the group beyond its parity: pairs are nested 4 times
+//   smaller (2 groups), so pair (g, g+1) looks exactly like pair (g+2, g+3)
+//   at another distance, and even a whole chart in view does not say which
+//   group its outermost pair is (charts are made with groups -2..7, 0..7,
+//   4..9, ...). Only the group numbers printed above the columns do: they
+//   are read by matching the chart's seven-segment digits (glyphs.h) for
+//   every group of the right parity, and accepted only when one reading is
+//   clearly best and all readings agree. A chart whose digits are of
+//   another typeface is not read, and the anchor stays none.
 //
 // Mild perspective is absorbed because every pattern has its own frame.
 
@@ -56,15 +76,22 @@ struct BarPattern {
   bool predicted = false;   // not found but placed by its column (see ChartDetection)
 };
 
-enum class ChartAnchor { none, largest_group, px_per_mm };
+enum class ChartAnchor { none, largest_group, px_per_mm, arrangement };
 const char* to_string(ChartAnchor a);
 
 // One element: a horizontal- and a vertical-bar pattern of the same size.
 struct ChartElement {
-  int h = -1, v = -1;       // indices into ChartDetection::patterns
+  int h = -1, v = -1;       // indices into ChartDetection::patterns; -1: not found (partial elements only)
   double period_px = 0;     // mean of the two
   int relative_index = 0;   // 0 = the largest element found; +1 per 2^(1/6) finer
   int group = 0, element = 1;  // absolute when anchored; else relative (largest = group 0 element 1)
+  // Only one of the two patterns was found (the other index is -1). Such an
+  // element is reported with a graded status and never measured or
+  // resolved: `out_of_view` when its missing pattern lies outside the image
+  // (the element is partly out of view), `fit_failed` when it lies inside
+  // but was not found there. `partial_reason` says which, in words.
+  enum class Partial { no, partner_out_of_view, partner_not_found } partial = Partial::no;
+  std::string partial_reason;
 };
 
 struct ChartDetection {
@@ -83,6 +110,23 @@ struct ChartDetection {
   // its offset). Bars too faint to binarise are still measured there, so
   // that the limit can be bracketed. Never past element 6 of an anchored group.
   int predicted_elements = 0;
+  // Elements of which only one pattern was found (ChartElement::partial):
+  // lone, well-sampled patterns whose period falls on the series at an
+  // index that no element holds. Kept apart from `elements` (which all have
+  // both patterns); reported with a graded status, never measured.
+  std::vector<ChartElement> partial;
+  // The standard arrangement, when recognised (see the top of this file):
+  // the index of relative index 0 modulo 12 and the handedness; the group
+  // labels read from the image, if any.
+  struct Arrangement {
+    bool recognised = false;
+    int phase = 0;              // absolute index of relative index 0, modulo 12
+    bool mirrored = false;      // seen from behind (or through a relay)
+    int steps_checked = 0;      // element-to-element steps compared with the arrangement
+    int steps_matched = 0;
+    int labels_read = 0;        // group labels read (0: the group is known modulo 2 only)
+    std::string note;           // what was or was not recognised, in words
+  } arrangement;
 };
 
 ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& options);
