@@ -405,6 +405,23 @@ TEST_CASE("chart: diffraction (f/28), groups 4-5 at 200 px/mm, limit in group 4,
   check_against_truth(run, "groups 4-5 at 200 px/mm, diffraction f/28, 40 dB", 4);
 }
 
+TEST_CASE("chart: the limit at an even group's element 1 (G2E1, lower right), no hint") {
+  TempDir dir("chart");
+  ChartScene c;
+  c.view = view_at(36);
+  c.view.roll_deg = 3;
+  c.blur_sigma_px = 2.95;
+  c.sensor = sensor_40db(17);
+  const ChartRun run = render_and_measure(c, dir, "limit-e1");
+  const Limits t = visible_truth_limits(run.truth, Criterion{});
+  CHECK(t.horizontal.group == 2);
+  CHECK(t.horizontal.element == 1);
+  CHECK(t.vertical.element == 1);
+  MESSAGE("anchor " << run.result.detection.anchor_description << "; predicted elements "
+                    << run.result.detection.predicted_elements);
+  check_against_truth(run, "limit at G2E1, Gaussian 2.95 px, 40 dB");
+}
+
 TEST_CASE("chart: groups 6-7 at 1000 px/mm, Gaussian 2 px, limit in group 7") {
   TempDir dir("chart");
   ChartScene c;
@@ -464,6 +481,59 @@ TEST_CASE("chart: elements cut by the image edge get a status, never a measureme
   CHECK(discrete_limit_agrees(M.horizontal, truth.horizontal));
   CHECK(discrete_limit_agrees(M.vertical, truth.vertical));
   MESSAGE(cut << " elements cut by the edge, " << D.partial.size() << " reported as partial");
+}
+
+TEST_CASE("chart: an element with one pattern wiped off gets fit_failed with the reason, never a measurement") {
+  TempDir dir("chart");
+  ChartScene c;
+  c.view = view_at(36);
+  c.view.roll_deg = 3;
+  const Scene s = scene_of(c);
+  const RenderResult r = render_scene(s, chart(), pinhole_camera());
+  ChartRun run;
+  run.truth = compute_truth(s, chart(), pinhole_camera());
+  // Wipe G1E1's vertical-bar triplet: paint its box with the paper level.
+  const TruthElement* tv = truth_for(run.truth, 1, 1, BarOrientation::vertical_bars);
+  REQUIRE(tv);
+  cv::Mat img = r.image.clone();
+  const double half = 4 * tv->px_per_bar;
+  const cv::Rect box(static_cast<int>(tv->center_px.x - half), static_cast<int>(tv->center_px.y - half),
+                     static_cast<int>(2 * half), static_cast<int>(2 * half));
+  double lo = 0, paper = 0;
+  cv::minMaxLoc(img(box), &lo, &paper);
+  img(box).setTo(paper);
+  run.file = dir.path / "wiped.tif";
+  write_image(run.file, img);
+  ChartMeasureOptions o;
+  o.detect.px_per_mm = 36;
+  run.result = measure_chart(load_image(run.file), o);
+  const ChartDetection& D = run.result.detection;
+  const Measurement& M = run.result.measurement;
+  REQUIRE(D.found);
+  REQUIRE(M.usable);
+  int reported = 0;
+  for (const ElementResult& e : M.elements) {
+    if (e.group != 1 || e.element != 1) continue;
+    ++reported;
+    CHECK(e.status == ElementStatus::fit_failed);
+    CHECK_FALSE(e.resolved);
+    CHECK(e.m == 0);
+  }
+  CHECK(reported == 2);
+  const nlohmann::json j = chart_to_json(D);
+  bool listed = false;
+  for (const auto& p : j["partial_elements"])
+    if (p["group"] == 1 && p["element"] == 1) {
+      listed = true;
+      CHECK(p["status"] == "fit_failed");
+      CHECK(p["found"] == "horizontal_bars");
+      CHECK(p["reason"].get<std::string>().find("was not found there") != std::string::npos);
+    }
+  CHECK(listed);
+  // Left out of the limits: the rest still gives the true limit.
+  const Limits truth = visible_truth_limits(run.truth, Criterion{});
+  CHECK(discrete_limit_agrees(M.horizontal, truth.horizontal));
+  CHECK(discrete_limit_agrees(M.vertical, truth.vertical));
 }
 
 namespace {
