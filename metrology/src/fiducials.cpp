@@ -1865,7 +1865,7 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
   // Coarse first (fast): a 2x-downsampled copy keeps discs of >= 5 px radius
   // detectable. Full resolution only if the coarse pass finds no full set.
   if (std::min(luminance.cols, luminance.rows) >= 400) scales.push_back(2);
-  scales.push_back(1);
+  if (scales.empty() || !options.coarse_only) scales.push_back(1);
   const bool layout_dark = layout.polarity == Polarity::dark_bars_on_light;
   // The layout's polarity first; shaded (a relief through a gel: crescents
   // or rings) last, as it is the least selective.

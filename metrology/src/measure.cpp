@@ -141,19 +141,37 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   auto t = Clock::now();
   // (A copy only when pixels are masked: it costs ~1 ms per megapixel.)
   const cv::Mat detection_image = cv::checkRange(lum) ? lum : filled_for_detection(lum);
-  M.fiducials = find_fiducials(detection_image, layout);
+  PoseOptions po;
+  po.boundary_points = options.pose_boundary_points;
+  auto observations_of = [&](const FiducialSearchResult& found) {
+    std::vector<DiscObservation> discs = disc_observations(layout.fiducials);
+    for (size_t i = 0; i < discs.size(); ++i)
+      for (const FiducialDetection& d : found.discs)
+        if (d.id == layout.fiducials[i].id) discs[i].centroid_px = d.centroid_px;
+    return discs;
+  };
   // A strongly distorting lens bends the disc pattern away from a plane
-  // homography. With a lens model, search again on a rectified copy, where
-  // the pattern is a homography again; the pose is then fitted through
-  // that copy's pinhole, which shares the lens's rays.
+  // homography. With a lens model, a failed search of the capture's coarse
+  // copy is followed by a search of a rectified copy, where the pattern is
+  // a homography again, and the pose is fitted through that copy's pinhole,
+  // which shares the lens's rays. Only if that finds no usable pose does
+  // the costly full-resolution search of the capture run.
+  const bool distorting = camera && !camera->is_pinhole();
+  FiducialSearchOptions first;
+  first.coarse_only = distorting;
+  M.fiducials = find_fiducials(detection_image, layout, first);
   std::optional<CameraModel> search_camera;  // the rectified view's pinhole, if used
-  const FiducialSearchResult direct_search = M.fiducials;
-  if (!M.fiducials.found && camera && !camera->is_pinhole()) {
+  if (!M.fiducials.found && distorting) {
     std::optional<RectifiedSearch> rectified = find_fiducials_rectified(detection_image, layout, *camera);
     if (rectified && rectified->fiducials.found) {
-      M.fiducials = rectified->fiducials;
-      search_camera = rectified->pinhole;
+      PoseResult pose = fit_pose(rectified->pinhole, observations_of(rectified->fiducials), po);
+      if (pose.usable) {
+        M.fiducials = rectified->fiducials;
+        M.pose = pose;
+        search_camera = rectified->pinhole;
+      }
     }
+    if (!search_camera) M.fiducials = find_fiducials(detection_image, layout);
   }
   M.stage_seconds.push_back({"locate_fiducials", since(t)});
   if (!M.fiducials.found) {
@@ -162,22 +180,10 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   }
 
   t = Clock::now();
-  std::vector<DiscObservation> discs = disc_observations(layout.fiducials);
-  for (size_t i = 0; i < discs.size(); ++i)
-    for (const FiducialDetection& d : M.fiducials.discs)
-      if (d.id == layout.fiducials[i].id) discs[i].centroid_px = d.centroid_px;
-  PoseOptions po;
-  po.boundary_points = options.pose_boundary_points;
+  const std::vector<DiscObservation> discs = observations_of(M.fiducials);
   std::optional<CameraModel> fitted;
   if (search_camera) {
-    M.pose = fit_pose(*search_camera, discs, po);
-    if (!M.pose.usable) {
-      // The rectified copy's discs gave no pose: answer as the search of
-      // the capture itself did.
-      M.fiducials = direct_search;
-      M.problem = M.fiducials.problem.empty() ? "no target found" : M.fiducials.problem;
-      return M;
-    }
+    // Fitted above, with the search (the time counts there).
     M.camera_source = camera->source();
     M.distortion_corrected = true;
     // Report the discs where they are in the capture.

@@ -1,10 +1,15 @@
 #include "tactres/metrology/rectified_search.h"
 
 #include <algorithm>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
 #include <cmath>
 #include <cstdint>
 #include <vector>
 
+#include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
 namespace tactres {
@@ -34,26 +39,60 @@ std::optional<CameraModel> rectifying_pinhole(const CameraModel& camera) {
   return CameraModel::pinhole(fx * scale, fy * scale, cx, cy, W, H);
 }
 
-cv::Mat rectify(const cv::Mat& image, const CameraModel& camera, const CameraModel& pinhole) {
+namespace {
+
+struct RemapTables {
+  cv::Mat map_x, map_y;  // CV_32F: where each rectified pixel looks in the capture
+};
+
+RemapTables remap_tables(const CameraModel& camera, const CameraModel& pinhole) {
   const int W = pinhole.imager_width(), H = pinhole.imager_height();
   const std::vector<double> k = pinhole.intrinsics();
-  cv::Mat map_x(H, W, CV_32F), map_y(H, W, CV_32F);
+  RemapTables t{cv::Mat(H, W, CV_32F), cv::Mat(H, W, CV_32F)};
   std::vector<Vec3> rays(W);
   std::vector<Vec2> px(W);
   std::vector<std::uint8_t> valid(W);
   for (int y = 0; y < H; ++y) {
     for (int x = 0; x < W; ++x) rays[x] = {(x - k[2]) / k[0], (y - k[3]) / k[1], 1.0};
     camera.project_into(rays, px, {}, {}, valid);
-    float* mx = map_x.ptr<float>(y);
-    float* my = map_y.ptr<float>(y);
+    float* mx = t.map_x.ptr<float>(y);
+    float* my = t.map_y.ptr<float>(y);
     for (int x = 0; x < W; ++x) {
       const bool ok = valid[x] && std::isfinite(px[x].x) && std::isfinite(px[x].y);
       mx[x] = ok ? float(px[x].x) : -1.f;
       my[x] = ok ? float(px[x].y) : -1.f;
     }
   }
+  return t;
+}
+
+// The tables cost ~45 ms for 1280x720 and depend on the two models only:
+// a batch measured with one camera computes them once.
+std::shared_ptr<const RemapTables> cached_remap_tables(const CameraModel& camera, const CameraModel& pinhole) {
+  std::string key = camera.lensmodel_name();
+  for (const CameraModel* m : {&camera, &pinhole}) {
+    key += fmt::format(" {}x{}", m->imager_width(), m->imager_height());
+    for (double v : m->intrinsics()) key += fmt::format(" {:.17g}", v);
+  }
+  static std::mutex mutex;
+  static std::map<std::string, std::shared_ptr<const RemapTables>> cache;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (auto it = cache.find(key); it != cache.end()) return it->second;
+  }
+  auto tables = std::make_shared<const RemapTables>(remap_tables(camera, pinhole));
+  std::lock_guard<std::mutex> lock(mutex);
+  if (cache.size() >= 4) cache.clear();  // a few cameras per process at most
+  cache.emplace(key, tables);
+  return tables;
+}
+
+}  // namespace
+
+cv::Mat rectify(const cv::Mat& image, const CameraModel& camera, const CameraModel& pinhole) {
+  const std::shared_ptr<const RemapTables> t = cached_remap_tables(camera, pinhole);
   cv::Mat out;
-  cv::remap(image, out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::remap(image, out, t->map_x, t->map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   return out;
 }
 

@@ -93,6 +93,11 @@ struct FiducialSearchOptions {
   double max_fit_error_frac = 0.02;
   // Disc-like blobs kept per polarity (best ellipse fits first), in [5, 1000].
   int max_candidates = 40;
+  // Search the 2x-downsampled copy only (images of >= 400 px; smaller ones
+  // are searched at full resolution anyway). For a caller with a cheaper
+  // second try (a lens-rectified copy) before the costly full-resolution
+  // pass.
+  bool coarse_only = false;
 
   // Throws std::invalid_argument naming the bad option and its valid range.
   void validate() const;
