@@ -241,21 +241,22 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
       const double t = (u_mm - d.u_mean_mm[b0]) / (d.u_mean_mm[b1] - d.u_mean_mm[b0]);
       return d.value[b0] + t * (d.value[b1] - d.value[b0]);
     };
+    // Per pixel: the regressor P dv and the departure value - P.
+    std::vector<std::pair<double, double>> xy(samples.size());
     double num = 0, den = 0;
-    for (const Sample& q : samples) {
-      const double P = profile_at(q.u_mm), dv = q.v_mm - bin_v[q.bin];
-      num += P * dv * (q.value - P);
-      den += P * P * dv * dv;
+    for (size_t k = 0; k < samples.size(); ++k) {
+      const Sample& q = samples[k];
+      const double P = profile_at(q.u_mm);
+      xy[k] = {P * (q.v_mm - bin_v[q.bin]), q.value - P};
+      num += xy[k].first * xy[k].second;
+      den += xy[k].first * xy[k].first;
     }
     const double g_per_mm = den > 0 ? num / den : 0.0;
     // Applied only when it matters and is real: interpolating P(u) between
     // the bins of a fine element leaves errors that a spurious g would
     // otherwise absorb.
     double rss = 0;
-    for (const Sample& q : samples) {
-      const double P = profile_at(q.u_mm), dv = q.v_mm - bin_v[q.bin];
-      rss += std::pow(q.value - P - g_per_mm * P * dv, 2);
-    }
+    for (const auto& [x, y] : xy) rss += (y - g_per_mm * x) * (y - g_per_mm * x);
     const double g_sigma = den > 0 && samples.size() > 2 ? std::sqrt(rss / (samples.size() - 2) / den) : 0.0;
     const bool significant = std::abs(g_per_mm) > 4 * g_sigma && std::abs(g_per_mm) * V > 2e-3;
     if (significant && std::abs(g_per_mm) * V < 0.5) {

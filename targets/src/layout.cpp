@@ -74,7 +74,11 @@ const ElementLayout* TargetLayout::find(int group, int element, BarOrientation o
   return nullptr;
 }
 
-void LayoutOptions::validate() const {
+namespace {
+bool in_range(double v, double hi) { return std::isfinite(v) && v > 0 && v <= hi; }
+}  // namespace
+
+void validate_group_range(int first_group, int last_group) {
   if (last_group < first_group)
     throw std::invalid_argument(fmt::format(
         "the group range {}..{} is empty or inverted: --last-group must be >= --first-group",
@@ -83,7 +87,20 @@ void LayoutOptions::validate() const {
     throw std::invalid_argument(fmt::format(
         "groups must lie in -10..12 (bar widths 512 mm .. 0.06 um), got {}..{}", first_group,
         last_group));
-  auto in_range = [](double v, double hi) { return std::isfinite(v) && v > 0 && v <= hi; };
+}
+
+void validate_relief(double relief_height_mm, double base_thickness_mm) {
+  if (!in_range(relief_height_mm, 10))
+    throw std::invalid_argument(
+        fmt::format("relief height must be in (0, 10] mm (--relief-um in (0, 10000]), got {} mm",
+                    relief_height_mm));
+  if (!in_range(base_thickness_mm, 100))
+    throw std::invalid_argument(
+        fmt::format("base thickness must be in (0, 100] mm, got {} mm", base_thickness_mm));
+}
+
+void LayoutOptions::validate() const {
+  validate_group_range(first_group, last_group);
   if (!in_range(field_width_mm, 1000) || !in_range(field_height_mm, 1000))
     throw std::invalid_argument(fmt::format(
         "field size must be in (0, 1000] mm on each side, got {} x {} mm", field_width_mm,
@@ -93,13 +110,7 @@ void LayoutOptions::validate() const {
         "field {} x {} mm is too small for fiducials and a reference patch: use at least 5 mm "
         "per side",
         field_width_mm, field_height_mm));
-  if (!in_range(relief_height_mm, 10))
-    throw std::invalid_argument(
-        fmt::format("relief height must be in (0, 10] mm (--relief-um in (0, 10000]), got {} mm",
-                    relief_height_mm));
-  if (!in_range(base_thickness_mm, 100))
-    throw std::invalid_argument(
-        fmt::format("base thickness must be in (0, 100] mm, got {} mm", base_thickness_mm));
+  validate_relief(relief_height_mm, base_thickness_mm);
 }
 
 // Declared in glyphs.h (shared with the MIL-STD-150A chart).

@@ -15,21 +15,8 @@
 namespace tactres {
 
 void MilStdChartOptions::validate() const {
-  if (last_group < first_group)
-    throw std::invalid_argument(fmt::format(
-        "the group range {}..{} is empty or inverted: --last-group must be >= --first-group",
-        first_group, last_group));
-  if (first_group < -10 || last_group > 12)
-    throw std::invalid_argument(fmt::format(
-        "groups must lie in -10..12 (bar widths 512 mm .. 0.06 um), got {}..{}", first_group,
-        last_group));
-  if (!(std::isfinite(relief_height_mm) && relief_height_mm > 0 && relief_height_mm <= 10))
-    throw std::invalid_argument(
-        fmt::format("relief height must be in (0, 10] mm (--relief-um in (0, 10000]), got {} mm",
-                    relief_height_mm));
-  if (!(std::isfinite(base_thickness_mm) && base_thickness_mm > 0 && base_thickness_mm <= 100))
-    throw std::invalid_argument(
-        fmt::format("base thickness must be in (0, 100] mm, got {} mm", base_thickness_mm));
+  validate_group_range(first_group, last_group);
+  validate_relief(relief_height_mm, base_thickness_mm);
 }
 
 namespace {

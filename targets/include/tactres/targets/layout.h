@@ -90,6 +90,13 @@ struct LayoutOptions {
   void validate() const;
 };
 
+// The option checks every target shares (the packed layout and the
+// MIL-STD-150A chart). Each throws std::invalid_argument naming the bad
+// option and its valid range: groups in -10..12 with last >= first; relief
+// height in (0, 10] mm, base thickness in (0, 100] mm.
+void validate_group_range(int first_group, int last_group);
+void validate_relief(double relief_height_mm, double base_thickness_mm);
+
 // Packs the elements, the reference patch, the fiducials and the labels into
 // the field. Throws std::invalid_argument if the groups do not fit, saying
 // which groups would fit in that field and which field the groups need.
