@@ -105,7 +105,7 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   }
   LoadOptions lo;
   lo.channel = a.channel;
-  lo.transfer = transfer_curve_from_string(a.transfer);
+  lo.transfer = transfer_from_option(a.transfer);
   lo.non_finite = non_finite_policy_from_string(a.non_finite);
 
   MeasurementContext ctx;
@@ -180,8 +180,11 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   }
   o.h_lp_per_mm = gate_value(m.horizontal);
   o.v_lp_per_mm = gate_value(m.vertical);
-  int ok = 0, other = 0;
-  for (const ElementResult& e : m.elements) (e.status == ElementStatus::ok ? ok : other)++;
+  int ok = 0, other = 0, poor = 0;
+  for (const ElementResult& e : m.elements) {
+    (e.status == ElementStatus::ok ? ok : other)++;
+    poor += e.status == ElementStatus::ok && !e.note.empty();
+  }
   std::string spec;
   std::vector<std::string> below;
   if (a.require_h && *o.h_lp_per_mm < *a.require_h)
@@ -207,6 +210,10 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
                             limit_text(m.vertical), ok, other, m.distortion_corrected ? "" : "; distortion NOT corrected",
                             spec);
   }
+  // How the pixels were read, and what to check: part of every answer.
+  o.summary += fmt::format("; pixels {} ({})", m.transfer.curve.name(), m.transfer.reason);
+  if (poor > 0) o.summary += fmt::format("; {} ok element(s) fit poorly (see their notes)", poor);
+  for (const std::string& w : m.warnings) o.summary += "\n  warning: " + w;
   return o;
 }
 
@@ -296,7 +303,8 @@ Command measure_command() {
             app.add_option("--junit", a->junit, "Write JUnit XML: one test case per image");
             app.add_option("--channel", a->channel, "Channel to measure (default -1: Rec. 709 luminance)")
                 ->capture_default_str();
-            app.add_option("--transfer", a->transfer, "Transfer curve of the file: auto, linear or srgb")
+            app.add_option("--transfer", a->transfer, "How the file's code values map to light: auto (the file's colour tag; without one, 8-bit = "
+                           "sRGB, 16-bit and float = linear), linear, srgb, or gamma:G (light = code^G, G in [0.2, 5])")
                 ->capture_default_str()
                 ->check(CLI::IsMember({"auto", "linear", "srgb"}));
             app.add_option("--non-finite", a->non_finite, "NaN/Inf pixels: mask (skip them) or reject the image")

@@ -13,9 +13,14 @@
 #include "tactres/metrology/scene.h"
 #include "tactres/metrology/truth.h"
 #include "tactres/targets/atomic_file.h"
+#include "tactres/targets/layout.h"
 #include "tactres/targets/layout_json.h"
 
 namespace tactres::cli {
+
+namespace {
+constexpr const char* kDefaultTargetName = "the default target (`tactres generate` with default options)";
+}  // namespace
 
 Command simulate_command() {
   return {"simulate", "Render a scene: the capture a sensor and camera would record, plus its truth file",
@@ -32,7 +37,9 @@ Command simulate_command() {
                            "Capture to write: .png (needs a sensor effect), .tif/.tiff or .exr (float)")
                 ->required();
             app.add_option("--truth", a->truth, "Truth file to write (default: <capture>.truth.json)");
-            app.add_option("--layout", a->layout, "Layout JSON (overrides the scene's \"layout\")");
+            app.add_option("--layout", a->layout,
+                           "Layout JSON (overrides the scene's \"layout\"; with neither, the default target of "
+                           "`tactres generate`)");
             app.add_option("--seed", a->seed, "Sensor noise seed (overrides the scene's; same seed, same bytes)");
             app.add_option("--supersampling", a->supersampling,
                            "Sub-pixels per pixel side, 1..16 (overrides the scene's; default 2)")
@@ -41,9 +48,14 @@ Command simulate_command() {
               Scene scene = read_scene_file(a->scene);
               if (a->supersampling > 0) scene.supersampling = a->supersampling;
               if (!a->layout.empty()) scene.layout_path = a->layout;
-              if (!scene.layout_path)
-                throw std::invalid_argument("no layout: give --layout layout.json or a \"layout\" in the scene");
-              const TargetLayout layout = read_layout_file(*scene.layout_path);
+              // No layout given: the default target, exactly as `tactres
+              // generate` makes it with default options, so that the shipped
+              // scenes run as they are.
+              const TargetLayout layout =
+                  scene.layout_path ? read_layout_file(*scene.layout_path) : make_layout(LayoutOptions{});
+              const std::string layout_source =
+                  scene.layout_path ? scene.layout_path->string()
+                                    : std::string(kDefaultTargetName);
               const CameraModel camera = CameraModel::load(scene.camera_path);
               const std::filesystem::path out(a->output);
               const std::filesystem::path truth_path =
@@ -59,6 +71,7 @@ Command simulate_command() {
 
               write_image(out, r.image, r.bits);
               nlohmann::json tj = truth_to_json(truth, scene, out.filename().string());
+              tj["layout"] = layout_source;
               write_file_atomically(truth_path, tj.dump(2) + "\n");
 
               auto limit_text = [](const Limit& l) {
@@ -67,9 +80,10 @@ Command simulate_command() {
                                    l.interpolated_lp_per_mm ? fmt::format("{:.2f}", *l.interpolated_lp_per_mm)
                                                             : std::string("n/a"));
               };
-              fmt::print("{}: {} {}x{} in {:.2f} s; true limit H {}, V {}; truth {}\n", scene.design,
+              fmt::print("{}: {} {}x{} in {:.2f} s; true limit H {}, V {}; truth {}{}\n", scene.design,
                          out.string(), r.image.cols, r.image.rows, seconds, limit_text(truth.horizontal),
-                         limit_text(truth.vertical), truth_path.string());
+                         limit_text(truth.vertical), truth_path.string(),
+                         scene.layout_path ? "" : fmt::format("; layout: {}", layout_source));
               return int(kExitOk);
             };
           }};

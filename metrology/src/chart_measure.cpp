@@ -307,6 +307,7 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
   M.image_height = image.height;
   M.camera_source = "none: chart mode, each pattern in its own frame from the detection";
   M.distortion_corrected = false;
+  M.transfer = image.transfer;
   const cv::Mat& lum = image.luminance;
 
   auto t = Clock::now();

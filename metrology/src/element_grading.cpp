@@ -5,11 +5,13 @@
 #include <cmath>
 #include <tuple>
 
+#include <fmt/format.h>
+
 namespace tactres {
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
                      const MeasureOptions& options, std::pair<double, double>& warm_lsf,
-                     const ProfilePrepare& prepare) {
+                     const ProfilePrepare& prepare, bool model_mismatch) {
   r.outline_px = sp.outline_px;
   r.outline_valid = sp.in_view;
   if (!sp.in_view) {
@@ -45,7 +47,7 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
   r.chi2_reduced = fit.chi2_reduced;
   if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
     r.status = ElementStatus::fit_failed;
-  } else if (fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0 &&
+  } else if (!model_mismatch && fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0 &&
              fit.residual_rms > 0.5 * std::abs(fo.contrast * fit.b0) * std::max(m, 0.05)) {
     // The bars are not where the geometry puts them at this sampling: the
     // image shows another period or bar count. Both tests must agree: the
@@ -53,12 +55,21 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     // modulation (a noise-free capture's tiny model error passes the first
     // test alone).
     r.status = ElementStatus::aliased;
+    r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
+                         r.px_per_bar, fit.chi2_reduced);
   } else if (m_sigma > options.max_m_sigma) {
     r.status = ElementStatus::low_signal;
+    r.note = fmt::format("m_sigma {:.3g} > {:.3g}: the fit cannot pin m down", m_sigma, options.max_m_sigma);
   } else {
     r.status = ElementStatus::ok;
     r.m = m;
     r.m_sigma = std::max(m_sigma, 1e-6);
+    // The covariance is already scaled by the reduced chi^2 (profile_fit.h),
+    // so m_sigma carries the misfit; a person still needs to know.
+    if (fit.chi2_reduced > options.poor_fit_chi2)
+      r.note = fmt::format("poor fit (reduced chi^2 {:.3g}): the profile model does not describe these bars well; "
+                           "m_sigma is widened by sqrt(chi^2){}",
+                           fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
   }
   return seconds;
 }

@@ -1,7 +1,9 @@
 #include "tactres/metrology/image_io.h"
 
 #include <cmath>
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <vector>
 
 #include <OpenImageIO/imageio.h>
@@ -18,13 +20,6 @@ void LoadOptions::validate() const {
     throw std::invalid_argument("--channel must be -1 (luminance) or a channel index 0..63");
 }
 
-TransferCurve transfer_curve_from_string(const std::string& s) {
-  if (s == "auto") return TransferCurve::automatic;
-  if (s == "linear") return TransferCurve::linear;
-  if (s == "srgb") return TransferCurve::srgb;
-  throw std::invalid_argument("unknown transfer curve '" + s + "': use auto, linear or srgb");
-}
-
 NonFinitePolicy non_finite_policy_from_string(const std::string& s) {
   if (s == "reject") return NonFinitePolicy::reject;
   if (s == "mask") return NonFinitePolicy::mask;
@@ -33,9 +28,57 @@ NonFinitePolicy non_finite_policy_from_string(const std::string& s) {
 
 namespace {
 
-// IEC 61966-2-1 sRGB decoding.
-float srgb_to_linear(float v) {
-  return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+// The colour chunks of a PNG file (sRGB, iCCP, gAMA), read from the chunk
+// list before the image data. OpenImageIO reports an untagged PNG as
+// "sRGB", exactly as one with an sRGB chunk, so the chunks themselves are
+// the only way to tell "says sRGB" from "says nothing".
+struct PngColourChunks {
+  bool srgb = false, iccp = false, gama = false;
+};
+
+PngColourChunks png_colour_chunks(const std::filesystem::path& path) {
+  PngColourChunks found;
+  std::ifstream in(path, std::ios::binary);
+  unsigned char header[8];
+  if (!in.read(reinterpret_cast<char*>(header), 8)) return found;
+  // Colour chunks must precede IDAT (PNG spec, 5.6); stop there.
+  for (int chunk = 0; chunk < 1000; ++chunk) {
+    unsigned char head[8];
+    if (!in.read(reinterpret_cast<char*>(head), 8)) break;
+    const uint32_t length = (uint32_t(head[0]) << 24) | (uint32_t(head[1]) << 16) | (uint32_t(head[2]) << 8) | head[3];
+    const std::string type(reinterpret_cast<const char*>(head + 4), 4);
+    if (type == "IDAT" || type == "IEND") break;
+    found.srgb |= type == "sRGB";
+    found.iccp |= type == "iCCP";
+    found.gama |= type == "gAMA";
+    if (!in.seekg(std::streamoff(length) + 4, std::ios::cur)) break;  // data and CRC
+  }
+  return found;
+}
+
+// The file's explicit statement of its encoding, if it makes one.
+ColourTag colour_tag_of(const std::filesystem::path& path, const OIIO::ImageInput& input,
+                        const OIIO::ImageSpec& spec) {
+  const std::string format = input.format_name();
+  const float gamma = spec.get_float_attribute("oiio:Gamma", 0.0f);
+  auto power_tag = [&](const std::string& what) {
+    return ColourTag{true, TransferCurve::power(std::clamp(double(gamma), 0.2, 5.0)),
+                     fmt::format("{} (gamma {:.3g})", what, gamma)};
+  };
+  if (format == "png") {
+    const PngColourChunks c = png_colour_chunks(path);
+    if (c.srgb) return {true, TransferCurve::srgb(), "PNG sRGB chunk"};
+    // Reading an ICC profile's curves needs a colour-management library;
+    // profiles in PNGs are overwhelmingly sRGB or close to it.
+    if (c.iccp) return {true, TransferCurve::srgb(), "PNG iCCP profile (read as sRGB)"};
+    if (c.gama && gamma > 0) return power_tag("PNG gAMA chunk");
+    return {};
+  }
+  if (spec.find_attribute("ICCProfile")) return {true, TransferCurve::srgb(), "embedded ICC profile (read as sRGB)"};
+  if (spec.get_int_attribute("Exif:ColorSpace", 0) == 1) return {true, TransferCurve::srgb(), "EXIF ColorSpace sRGB"};
+  if (format == "openexr") return {true, TransferCurve::linear(), "OpenEXR (linear by definition)"};
+  if (gamma > 0) return power_tag(format + " gamma attribute");
+  return {};
 }
 
 std::string format_name(OIIO::TypeDesc t) {
@@ -57,7 +100,7 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
   if (!in)
     throw UnusableInput(fmt::format("cannot decode image {}: {} (is it a complete image file?)",
                                     path.string(), OIIO::geterror()));
-  const OIIO::ImageSpec& spec = in->spec();
+  const OIIO::ImageSpec spec = in->spec();
   LoadedImage out;
   out.width = spec.width;
   out.height = spec.height;
@@ -75,13 +118,11 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data()))
     throw UnusableInput(fmt::format("cannot decode image {}: {} (truncated or corrupt file?)",
                                     path.string(), in->geterror()));
-  in->close();
 
-  const std::string cs = spec.get_string_attribute("oiio:ColorSpace");
-  const bool file_says_srgb = cs == "sRGB" || cs == "srgb";
-  const bool srgb = options.transfer == TransferCurve::srgb ||
-                    (options.transfer == TransferCurve::automatic && file_says_srgb);
-  out.transfer_applied = srgb ? "srgb" : "linear";
+  out.transfer = decide_transfer(options.transfer, colour_tag_of(path, *in, spec), out.integer_format,
+                                 out.bits_per_sample);
+  in->close();
+  const TransferCurve& curve = out.transfer.curve;
   out.saturation_level = out.integer_format ? 1.0 : 0.0;
 
   out.luminance.create(spec.height, spec.width, CV_32F);
@@ -92,7 +133,7 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
     const float* src = pixels.data() + static_cast<size_t>(y) * spec.width * nc;
     for (int x = 0; x < spec.width; ++x) {
       const float* p = src + static_cast<size_t>(x) * nc;
-      auto lin = [&](float v) { return srgb ? srgb_to_linear(v) : v; };
+      auto lin = [&](float v) { return curve.to_linear(v); };
       float v;
       if (colour) v = 0.2126f * lin(p[0]) + 0.7152f * lin(p[1]) + 0.0722f * lin(p[2]);
       else v = lin(p[options.channel < 0 ? 0 : options.channel]);

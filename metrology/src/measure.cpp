@@ -1,5 +1,6 @@
 #include "tactres/metrology/measure.h"
 #include "tactres/metrology/rectified_search.h"
+#include "tactres/metrology/reference_patch.h"
 
 #include <algorithm>
 #include <chrono>
@@ -114,16 +115,16 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   Measurement M;
   M.image_width = image.width;
   M.image_height = image.height;
-  const cv::Mat& lum = image.luminance;
+  const cv::Mat& lum_in = image.luminance;
   if (camera) camera->check_image_size(image.width, image.height);
 
   // Saturation: a capture that is mostly clipped cannot be measured.
   if (image.saturation_level > 0) {
     const double clip = image.saturation_level * 0.9999;
     long long clipped = 0, finite = 0;
-    for (int y = 0; y < lum.rows; ++y) {
-      const float* r = lum.ptr<float>(y);
-      for (int x = 0; x < lum.cols; ++x)
+    for (int y = 0; y < lum_in.rows; ++y) {
+      const float* r = lum_in.ptr<float>(y);
+      for (int x = 0; x < lum_in.cols; ++x)
         if (std::isfinite(r[x])) {
           ++finite;
           clipped += r[x] >= clip ? 1 : 0;
@@ -140,7 +141,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
 
   auto t = Clock::now();
   // (A copy only when pixels are masked: it costs ~1 ms per megapixel.)
-  const cv::Mat detection_image = cv::checkRange(lum) ? lum : filled_for_detection(lum);
+  const cv::Mat detection_image = cv::checkRange(lum_in) ? lum_in : filled_for_detection(lum_in);
   PoseOptions po;
   po.boundary_points = options.pose_boundary_points;
   auto observations_of = [&](const FiducialSearchResult& found) {
@@ -224,80 +225,34 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   M.nyquist_h_lp_per_mm = nyq.horizontal_bars_lp_per_mm;
   M.nyquist_v_lp_per_mm = nyq.vertical_bars_lp_per_mm;
 
-  // Reference patch: the contrast scale per direction, and the signature
-  // (printed bars vs relief through a gel) when it is not given.
+  // Reference patch: the contrast scale per direction, the signature
+  // (printed bars vs relief through a gel) when it is not given, and the
+  // check that the pixels were decoded with the curve the patch fits.
   t = Clock::now();
-  ReferenceResult& ref = M.reference;
-  {
-    ProfileSamplingOptions ps = options.sampling;
-    ps.bin_px = std::max(ps.bin_px, 0.5);  // the patch's long edges need no finer bins
-    SampledProfile px = sample_strip(lum, view, layout, index, patch_strip(layout, true), ps, clip_level);
-    SampledProfile py = sample_strip(lum, view, layout, index, patch_strip(layout, false), ps, clip_level);
-    if (!px.in_view || !py.in_view) {
-      ref.problem = "the reference patch is not fully in view: frame the whole target";
-    } else if (px.pixels_clipped > px.pixels_used / 20 || py.pixels_clipped > py.pixels_used / 20) {
-      ref.problem = "the reference patch is clipped (saturated or black): adjust exposure";
-    } else {
-      ProfileFitOptions fo;
-      fo.fit_contrast = true;
-      fo.fit_shape = false;
-      fo.quadratic_background = true;
-      auto fit_both = [&](Signature sig) {
-        fo.signature = sig;
-        return std::make_pair(fit_profile(px.data, fo), fit_profile(py.data, fo));
-      };
-      std::pair<ProfileFit, ProfileFit> fits;
-      if (options.signature == "albedo" || options.signature == "shading") {
-        ref.signature = options.signature == "albedo" ? Signature::albedo : Signature::shading;
-        fits = fit_both(ref.signature);
-      } else {
-        // Choose the model that describes the patch across x, then fit the
-        // other direction with it.
-        fo.signature = Signature::albedo;
-        ProfileFit albedo_x = fit_profile(px.data, fo);
-        fo.signature = Signature::shading;
-        ProfileFit shading_x = fit_profile(px.data, fo);
-        auto cost = [](const ProfileFit& f) { return f.usable ? f.chi2_reduced : 1e300; };
-        ref.signature = cost(shading_x) < cost(albedo_x) ? Signature::shading : Signature::albedo;
-        fo.signature = ref.signature;
-        fits = {ref.signature == Signature::shading ? shading_x : albedo_x, fit_profile(py.data, fo)};
-      }
-      if (!fits.first.usable || !fits.second.usable) {
-        ref.problem = "the reference patch could not be fitted: " +
-                      (fits.first.usable ? fits.second.failure : fits.first.failure);
-      } else {
-        ref.contrast_x = fits.first.contrast;
-        ref.contrast_x_sigma = fits.first.contrast_sigma;
-        ref.contrast_y = fits.second.contrast;
-        ref.contrast_y_sigma = fits.second.contrast_sigma;
-        ref.chi2_x = fits.first.chi2_reduced;
-        ref.chi2_y = fits.second.chi2_reduced;
-        // The patch must stand out of the noise, or nothing can be normalised.
-        auto significant = [](double c, double s) { return std::abs(c) > 5 * s && std::abs(c) > 1e-4; };
-        ref.usable = significant(ref.contrast_x, ref.contrast_x_sigma) ||
-                     significant(ref.contrast_y, ref.contrast_y_sigma);
-        if (!ref.usable)
-          ref.problem =
-              "the reference patch shows no contrast where the layout puts it: is this the layout.json of the "
-              "captured target, and is the target in focus and lit?";
-        // A patch that the model cannot describe is not where the layout
-        // puts it: the fiducials matched, but the rest of the target differs.
-        // The misfit must also be large against the patch's own contrast,
-        // or a noise-free capture's tiny model error would trip it.
-        const double misfit = std::max(fits.first.residual_rms / std::abs(fits.first.contrast * fits.first.b0),
-                                       fits.second.residual_rms / std::abs(fits.second.contrast * fits.second.b0));
-        if (ref.usable && std::max(ref.chi2_x, ref.chi2_y) > options.max_patch_chi2 && misfit > 0.25) {
-          ref.usable = false;
-          ref.problem = fmt::format(
-              "the capture does not match the layout: the reference patch is not where the layout puts it "
-              "(fit chi^2 {:.0f}); measure with the layout.json of the captured target{}",
-              std::max(ref.chi2_x, ref.chi2_y),
-              // Without a lens model, distortion moves the patch as a wrong layout would.
-              camera ? "" : ", and give the lens's --camera model if it distorts");
-        }
-      }
-    }
+  M.transfer = image.transfer;
+  cv::Mat redecoded;  // the capture under a better curve, when one replaces a guess
+  const PatchScene patch_scene{view, layout, index, clip_level, camera != nullptr};
+  M.reference = fit_reference_patch(lum_in, patch_scene, options);
+  M.transfer_check = check_transfer(lum_in, image.transfer, M.reference, patch_scene, options);
+  if (M.transfer_check.switch_to) {
+    redecoded = redecode(lum_in, image.transfer.curve, *M.transfer_check.switch_to);
+    M.transfer = {*M.transfer_check.switch_to,
+                  image.transfer.reason + "; switched: the reference patch fits " +
+                      M.transfer_check.switch_to->name() + " far better",
+                  false};
+    M.reference = fit_reference_patch(redecoded, patch_scene, options);
   }
+  if (!M.transfer_check.message.empty()) M.warnings.push_back(M.transfer_check.message);
+  const cv::Mat& lum = redecoded.empty() ? lum_in : redecoded;
+  // A patch the model cannot describe under this curve, when another curve
+  // describes it: the encoding is wrong, not the layout. Measure, and say so.
+  const bool encoding_mismatch = M.transfer_check.mismatch && !M.transfer_check.switch_to;
+  if (encoding_mismatch && M.reference.layout_mismatch) {
+    M.reference.usable = true;
+    M.reference.layout_mismatch = false;
+    M.reference.problem.clear();
+  }
+  const ReferenceResult& ref = M.reference;
   M.stage_seconds.push_back({"reference_patch", since(t)});
   if (!ref.usable) {
     M.problem = ref.problem;
@@ -330,7 +285,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     fo.contrast = across_x ? ref.contrast_x : ref.contrast_y;
     fo.fit_shape = options.fit_psf_shape;
     fit_s += grade_element(r, sp, fo, across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma, options,
-                           last_lsf[across_x]);
+                           last_lsf[across_x], {}, encoding_mismatch);
     M.elements.push_back(r);
   }
   M.stage_seconds.push_back({"profiles", sample_s});

@@ -30,14 +30,27 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
                       {"significance_z", ctx.options->criterion.significance_z}};
     j["preset"] = to_string(ctx.options->preset);
   }
-  if (ctx.loaded)
+  if (ctx.loaded) {
+    // The measurement's own decision wins: a guessed curve may have been
+    // replaced by one the reference patch fits far better.
+    const TransferDecision& transfer = m.transfer.reason.empty() ? ctx.loaded->transfer : m.transfer;
     j["input"] = {{"width", ctx.loaded->width},
                   {"height", ctx.loaded->height},
                   {"channels", ctx.loaded->channels},
                   {"pixel_format", ctx.loaded->pixel_format},
                   {"bits_per_sample", ctx.loaded->bits_per_sample},
-                  {"transfer", ctx.loaded->transfer_applied},
+                  {"transfer", transfer.curve.name()},
+                  {"transfer_reason", transfer.reason},
                   {"non_finite_pixels", ctx.loaded->non_finite_pixels}};
+  }
+  if (m.transfer_check.checked)
+    j["transfer_check"] = {{"applied", m.transfer_check.applied},
+                           {"best", m.transfer_check.best},
+                           {"chi2_applied", finite(m.transfer_check.chi2_applied)},
+                           {"chi2_best", finite(m.transfer_check.chi2_best)},
+                           {"mismatch", m.transfer_check.mismatch},
+                           {"switched", m.transfer_check.switch_to.has_value()}};
+  j["warnings"] = m.warnings;
   j["camera"] = {{"model", m.camera_source}, {"distortion_corrected", m.distortion_corrected}};
   if (m.pose.usable) {
     nlohmann::json rt = nlohmann::json::array();
@@ -75,7 +88,8 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
                    {"psf_shape_beta", ok ? finite(e.beta) : nlohmann::json()},
                    {"chi2_reduced", e.chi2_reduced > 0 ? finite(e.chi2_reduced) : nlohmann::json()},
                    {"status", to_string(e.status)},
-                   {"resolved", e.resolved}});
+                   {"resolved", e.resolved},
+                   {"note", e.note.empty() ? nlohmann::json() : nlohmann::json(e.note)}});
   }
   j["elements"] = els;
   nlohmann::json timing = nlohmann::json::object();

@@ -587,7 +587,7 @@ ChartRun render_photo(const TempDir& dir, const std::string& name, bool jpeg, co
   ChartMeasureOptions o;
   o.detect = detect;
   const LoadedImage loaded = load_image(run.file);
-  if (jpeg) CHECK(loaded.transfer_applied == "srgb");
+  if (jpeg) CHECK(loaded.transfer.curve.name() == "srgb");
   run.result = measure_chart(loaded, o);
   return run;
 }

@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include <doctest/doctest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "scene_fixtures.h"
@@ -200,4 +201,24 @@ TEST_CASE("simulate: the same seed gives the same bytes") {
   REQUIRE(run("c.png", 8) == 0);
   CHECK(read_file(dir.path / "a.png") == read_file(dir.path / "b.png"));
   CHECK(read_file(dir.path / "a.png") != read_file(dir.path / "c.png"));
+}
+
+TEST_CASE("simulate: a scene without a layout renders the default target of `tactres generate`, and says so") {
+  TempDir dir("nolayout");
+  const auto generated = dir.path / "target";
+  REQUIRE(std::system((std::string(TACTRES_BINARY) + " generate --out " + generated.string() + " > /dev/null").c_str()) ==
+          0);
+  auto run = [&](const std::string& out, const std::string& extra) {
+    const std::string cmd = std::string(TACTRES_BINARY) + " simulate " +
+                            (source_dir() / "examples/scenes/cmos.json").string() + extra + " -o " +
+                            (dir.path / out).string() + " --supersampling 1 > " + (dir.path / (out + ".txt")).string();
+    const int status = std::system(cmd.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  REQUIRE(run("default.png", "") == 0);
+  REQUIRE(run("given.png", " --layout " + (generated / "layout.json").string()) == 0);
+  CHECK(read_file(dir.path / "default.png") == read_file(dir.path / "given.png"));
+  CHECK(read_file(dir.path / "default.png.txt").find("layout: the default target") != std::string::npos);
+  const auto truth = nlohmann::json::parse(read_file(dir.path / "default.png.truth.json"));
+  CHECK(truth["layout"].get<std::string>().find("default target") != std::string::npos);
 }

@@ -171,7 +171,8 @@ void image(const std::uint8_t* data, std::size_t size) {
   const std::uint8_t pick = data[0], opts = data[1];
   LoadOptions o;
   o.channel = int(opts & 3) - 1;  // -1 (luminance), 0, 1, 2
-  o.transfer = static_cast<TransferCurve>((opts >> 2) % 3);
+  const std::optional<TransferCurve> curves[] = {std::nullopt, TransferCurve::linear(), TransferCurve::srgb()};
+  o.transfer = curves[(opts >> 2) % 3];
   o.non_finite = (opts & 16) ? NonFinitePolicy::reject : NonFinitePolicy::mask;
   static const std::filesystem::path dir = [] {
     auto d = std::filesystem::temp_directory_path() / ("tactres-fuzz-image-" + std::to_string(::getpid()));
@@ -292,7 +293,7 @@ void measure_raw(const std::uint8_t* data, std::size_t size) {
   img.pixel_format = "uint8";
   img.bits_per_sample = 8;
   img.integer_format = true;
-  img.transfer_applied = "linear";
+  img.transfer = {TransferCurve::linear(), "test", false};
   img.saturation_level = 1.0;
   img.luminance.create(h, w, CV_32F);
   const std::uint8_t* px = data + 9;

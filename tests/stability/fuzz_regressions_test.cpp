@@ -117,7 +117,7 @@ TEST_CASE("fuzz: write the corpus seeds" * doctest::skip(std::getenv("TACTRES_WR
     img.height = 180;
     img.channels = 1;
     img.pixel_format = "float";
-    img.transfer_applied = "linear";
+    img.transfer = {TransferCurve::linear(), "test", false};
     const MeasureOptions o = MeasureOptions::for_preset(Preset::fast);
     MeasurementContext ctx;
     ctx.image = "capture.tif";

@@ -178,7 +178,7 @@ inline LoadedImage float_image(const cv::Mat& lum) {
   img.channels = 1;
   img.pixel_format = "float";
   img.bits_per_sample = 32;
-  img.transfer_applied = "linear";
+  img.transfer = {TransferCurve::linear(), "test", false};
   for (int y = 0; y < img.luminance.rows; ++y)
     for (int x = 0; x < img.luminance.cols; ++x)
       if (!std::isfinite(img.luminance.at<float>(y, x))) {
@@ -199,7 +199,7 @@ inline LoadedImage integer_image(const cv::Mat& dn, int bits) {
   img.pixel_format = bits > 8 ? "uint16" : "uint8";
   img.bits_per_sample = bits > 8 ? 16 : 8;
   img.integer_format = true;
-  img.transfer_applied = "linear";
+  img.transfer = {TransferCurve::linear(), "test", false};
   img.saturation_level = 1.0;
   return img;
 }

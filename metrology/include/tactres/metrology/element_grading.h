@@ -18,9 +18,13 @@
 //     clipped               more than 2 % of the strip's pixels clipped;
 //     fit_failed            the solver failed, or m / m_sigma not finite;
 //     aliased               px_per_bar < 3 and reduced chi^2 > aliasing_chi2
-//                           and a residual > half the bars' own modulation;
+//                           and a residual > half the bars' own modulation,
+//                           unless `model_mismatch` (the reference patch
+//                           already shows a global mismatch, such as a wrong
+//                           pixel encoding: that, not aliasing, explains it);
 //     low_signal            m_sigma > options.max_m_sigma;
-//     ok                    m and m_sigma (>= 1e-6) are set.
+//     ok                    m and m_sigma (>= 1e-6) are set; r.note says so
+//                           when the reduced chi^2 exceeds poor_fit_chi2.
 //   r.beta and r.chi2_reduced are set whenever the fit was usable; m and
 //   m_sigma stay 0 unless the status is ok. r.resolved is not touched
 //   (decide_limits sets it).
@@ -43,7 +47,7 @@ using ProfilePrepare = std::function<ProfileData(const ProfileData&, const Profi
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
                      const MeasureOptions& options, std::pair<double, double>& warm_lsf,
-                     const ProfilePrepare& prepare = {});
+                     const ProfilePrepare& prepare = {}, bool model_mismatch = false);
 
 // The limits per orientation under `criterion`, from M.elements (a status
 // other than ok counts as unresolved), into M.horizontal / M.vertical, and

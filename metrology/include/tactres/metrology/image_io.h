@@ -5,16 +5,19 @@
 //  - any format OpenImageIO reads; integer formats are scaled to [0, 1] of
 //    their full range, float formats are kept as they are;
 //  - colour becomes Rec. 709 luminance of the linear values, or one channel;
-//  - the transfer curve is explicit: linear, sRGB, or auto (sRGB only when
-//    the file says its colour space is sRGB);
+//  - the transfer curve is explicit: forced, or what the file's colour tags
+//    say, or by bit depth when it has none (transfer_curve.h);
 //  - non-finite pixels follow a named policy: reject the image, or mask
 //    them (NaN marks "no data" downstream and is never averaged).
 
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
 #include <opencv2/core/mat.hpp>
+
+#include "tactres/metrology/transfer_curve.h"
 
 namespace tactres {
 
@@ -25,17 +28,15 @@ class UnusableInput : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class TransferCurve { automatic, linear, srgb };
 enum class NonFinitePolicy { reject, mask };
 
 struct LoadOptions {
   int channel = -1;  // -1: luminance; else 0-based channel index
-  TransferCurve transfer = TransferCurve::automatic;
+  std::optional<TransferCurve> transfer;  // nullopt: auto (tags, then bit depth)
   NonFinitePolicy non_finite = NonFinitePolicy::mask;
   void validate() const;
 };
 
-TransferCurve transfer_curve_from_string(const std::string& s);  // auto | linear | srgb
 NonFinitePolicy non_finite_policy_from_string(const std::string& s);  // reject | mask
 
 struct LoadedImage {
@@ -44,7 +45,7 @@ struct LoadedImage {
   std::string pixel_format;   // e.g. "uint8", "uint16", "half", "float"
   int bits_per_sample = 0;
   bool integer_format = false;
-  std::string transfer_applied;  // "linear" or "srgb"
+  TransferDecision transfer;  // the curve applied, and why
   long long non_finite_pixels = 0;
   double saturation_level = 0;  // value at which integer pixels clip (1.0); 0 for float
 };

@@ -50,6 +50,8 @@ struct MeasureOptions {
   double aliasing_chi2 = 16;        // reduced chi^2 above which a fine element is aliased
   double max_m_sigma = 0.25;        // above: low_signal
   double max_patch_chi2 = 50;       // above: the capture does not match the layout
+  double transfer_check_chi2 = 10;  // patch reduced chi^2 above which other transfer curves are tried
+  double poor_fit_chi2 = 25;        // an ok element above this gets a note (its sigma is already widened)
   std::string signature = "auto";   // auto | albedo | shading
 
   static MeasureOptions for_preset(Preset p);
@@ -64,6 +66,7 @@ struct ElementResult {
   double beta = 0, chi2_reduced = 0;
   ElementStatus status = ElementStatus::fit_failed;
   bool resolved = false;
+  std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say
   std::array<Vec2, 4> outline_px{};
   bool outline_valid = false;
 };
@@ -77,6 +80,8 @@ struct ReferenceResult {
   double contrast_x = 0, contrast_x_sigma = 0;
   double contrast_y = 0, contrast_y_sigma = 0;
   double chi2_x = 0, chi2_y = 0;  // reduced chi^2 of the patch fits
+  bool layout_mismatch = false;   // refused: the model cannot describe the patch where the layout puts it
+  std::vector<Vec2> outline_px;   // corners of the two patch strips in the image
 };
 
 struct Measurement {
@@ -88,6 +93,9 @@ struct Measurement {
   FiducialSearchResult fiducials;
   PoseResult pose;
   ReferenceResult reference;
+  TransferDecision transfer;    // the curve the capture was measured with, and why
+  TransferCheck transfer_check; // what the reference patch said about that curve
+  std::vector<std::string> warnings;  // for people: what to check although the capture was measured
   std::vector<ElementResult> elements;
   Limit horizontal, vertical;
   double nyquist_h_lp_per_mm = 0, nyquist_v_lp_per_mm = 0;
