@@ -15,7 +15,7 @@
 
 #include "command.h"
 #include "exit_codes.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/heightmap.h"
 #include "tactres/targets/layout.h"
 #include "tactres/targets/layout_json.h"

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <mutex>
-#include <thread>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -17,7 +16,8 @@
 #include "tactres/metrology/image_io.h"
 #include "tactres/metrology/measure.h"
 #include "tactres/metrology/measurement_io.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
+#include "tactres/util/parallel.h"
 #include "tactres/targets/layout_json.h"
 
 namespace tactres::cli {
@@ -346,13 +346,10 @@ Command measure_command() {
               }
 
               std::vector<Outcome> outcomes(a->images.size());
-              std::atomic<size_t> next{0}, done{0};
+              std::atomic<size_t> done{0};
               std::mutex print;
               const bool tty = isatty(fileno(stderr)) && batch;
-              const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-              const size_t jobs = std::min<size_t>(a->images.size(), a->jobs > 0 ? size_t(a->jobs) : hw);
-              auto worker = [&]() {
-                for (size_t i; (i = next++) < a->images.size();) {
+              for_each_index(a->images.size(), a->jobs, [&](size_t i) {
                   try {
                     outcomes[i] = measure_one(*a, a->images[i], layout ? &*layout : nullptr, camera ? &*camera : nullptr, options, batch);
                   } catch (const std::exception& e) {  // an output could not be written
@@ -369,12 +366,7 @@ Command measure_command() {
                     fmt::print(stderr, "\r[{}{}] {}/{} {}", std::string(filled, '#'), std::string(width - filled, ' '),
                                n, a->images.size(), n == a->images.size() ? "\n" : "");
                   }
-                }
-              };
-              std::vector<std::thread> pool;
-              for (size_t k = 1; k < jobs; ++k) pool.emplace_back(worker);
-              worker();
-              for (auto& t : pool) t.join();
+              });
 
               int worst = kExitOk;
               for (const Outcome& o : outcomes) {

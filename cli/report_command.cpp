@@ -12,7 +12,7 @@
 #include "tactres/reports/comparison.h"
 #include "tactres/reports/report_csv.h"
 #include "tactres/reports/report_html.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 
 namespace tactres::cli {
 namespace {

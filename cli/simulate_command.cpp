@@ -12,7 +12,7 @@
 #include "tactres/metrology/renderer.h"
 #include "tactres/metrology/scene.h"
 #include "tactres/metrology/truth.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/layout.h"
 #include "tactres/targets/layout_json.h"
 

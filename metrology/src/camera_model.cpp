@@ -9,7 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 
 extern "C" {
 #include <mrcal/mrcal.h>

@@ -11,7 +11,7 @@
 #include <random>
 #include <string>
 
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 
 namespace tactres {
 namespace {

@@ -75,7 +75,7 @@ TEST_CASE("chart detection: positive and negative, rotated and mirrored, anchore
   }
 }
 
-TEST_CASE("chart detection: --px-per-mm anchors the group; no anchor keeps indices relative") {
+TEST_CASE("chart detection: --px-per-mm anchors the group, no anchor keeps indices relative") {
   const cv::Mat img = chart_image(false);
   ChartDetectOptions o;
   o.px_per_mm = kPxPerMm;

@@ -47,7 +47,7 @@ TEST_CASE("uncertainty propagates from m_sigma and the significance rule bites")
   CHECK_FALSE(cut.interpolated_lp_per_mm);  // the next one is not a clean crossing
 }
 
-TEST_CASE("unusable elements are never resolved; all-resolved is flagged") {
+TEST_CASE("unusable elements are never resolved, all-resolved is flagged") {
   std::vector<MPoint> pts = gaussian_series(0.001, 0.0);
   CHECK(find_limit(pts, {}).beyond_finest);
   pts[0].usable = false;

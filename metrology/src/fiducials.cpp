@@ -205,7 +205,57 @@ struct Pattern {
   std::array<Vec2, 4> field;  // the field's corners, mm
   double ab_mm = 0;
   RectMm patch;  // the reference patch (area 0 if none)
+  // The disc radius over the spread of the artwork's outlines, (det C)^(1/4)
+  // with C their length-weighted second central moments (mm^2): what an
+  // image's edges alone say about the discs' size (see detect_mode). 0 when
+  // the layout lists no artwork.
+  double disc_per_spread = 0;
 };
+
+// (det C)^(1/4), in mm, of the artwork's outlines (every edge of every
+// shape, weighted by its length); 0 if there are none.
+double outline_spread_mm(const TargetLayout& layout) {
+  double L = 0;
+  Vec2 S{};
+  Sym2 Q{};
+  auto segment = [&](Vec2 a, Vec2 b) {
+    // Integrals of p and p p^T along the segment a -> b.
+    const Vec2 d = b - a;
+    const double l = norm(d);
+    if (!(l > 0)) return;
+    L += l;
+    S = S + (0.5 * l) * (a + b);
+    Q.xx += l * (a.x * a.x + a.x * d.x + d.x * d.x / 3);
+    Q.xy += l * (a.x * a.y + 0.5 * (a.x * d.y + d.x * a.y) + d.x * d.y / 3);
+    Q.yy += l * (a.y * a.y + a.y * d.y + d.y * d.y / 3);
+  };
+  auto outline = [&](const std::vector<Vec2>& p) {
+    for (size_t i = 0; i < p.size(); ++i) segment(p[i], p[(i + 1) % p.size()]);
+  };
+  for (const ArtworkShape& a : layout.artwork) {
+    switch (a.kind) {
+      case ArtworkShape::Kind::rect: {
+        const RectMm& r = a.rect_mm;
+        outline({{r.x0, r.y0}, {r.x1, r.y0}, {r.x1, r.y1}, {r.x0, r.y1}});
+        break;
+      }
+      case ArtworkShape::Kind::disc: {
+        std::vector<Vec2> p;
+        for (int k = 0; k < 32; ++k)
+          p.push_back(a.center_mm + a.radius_mm * Vec2{std::cos(2 * kPi * k / 32), std::sin(2 * kPi * k / 32)});
+        outline(p);
+        break;
+      }
+      case ArtworkShape::Kind::polygon:
+        outline(a.polygon_mm);
+        break;
+    }
+  }
+  if (!(L > 0)) return 0;
+  const Vec2 m = (1 / L) * S;
+  const Sym2 C{Q.xx / L - m.x * m.x, Q.xy / L - m.x * m.y, Q.yy / L - m.y * m.y};
+  return C.det() > 0 ? std::sqrt(std::sqrt(C.det())) : 0;
+}
 
 Pattern make_pattern(const TargetLayout& layout) {
   const auto& f = layout.fiducials;
@@ -256,6 +306,8 @@ Pattern make_pattern(const TargetLayout& layout) {
              Vec2{0, layout.height_mm}};
   P.ab_mm = norm(P.p[P.b] - P.p[P.a]);
   P.patch = layout.reference_patch_mm;
+  const double spread = outline_spread_mm(layout);
+  P.disc_per_spread = spread > 0 ? P.r_mm / spread : 0;
   return P;
 }
 
@@ -314,10 +366,10 @@ struct Workspace {
   cv::Mat img;                                          // the detection-scale copy
   cv::Mat log_img, log_mean, n8, otsu_scratch;          // normalise()
   cv::Mat fine, bg, small, thr_small, thr, mag, patched;  // relief_mask()
-  cv::Mat edges, relief, count, closed;                 // 8-bit masks
-  std::array<cv::Mat*, 15> all() {
+  cv::Mat edges, relief, count, closed, padded;         // 8-bit masks
+  std::array<cv::Mat*, 16> all() {
     return {&img, &log_img, &log_mean, &n8, &otsu_scratch, &fine, &bg, &small,
-            &thr_small, &thr, &mag, &patched, &edges, &relief, &count};
+            &thr_small, &thr, &mag, &patched, &edges, &relief, &count, &padded};
   }
   // Releases the buffers of more than max_pixels elements.
   void trim(size_t max_pixels) {
@@ -525,9 +577,10 @@ ReliefMask relief_mask(const cv::Mat& img) {
 }
 
 // Thresholds one mode's image (dark, light or shaded discs) and keeps the
-// elliptical blobs, in `det`. `relief` is used by the shaded mode only.
+// elliptical blobs, in `det`. `relief` is used by the shaded mode only, as
+// is `disc_per_spread` (Pattern).
 void detect_mode(const Normalised& nz, const ReliefMask& relief, int pol,
-                 const FiducialSearchOptions& o, Detection& det) {
+                 const FiducialSearchOptions& o, double disc_per_spread, Detection& det) {
   if (pol == kShaded ? relief.blank : nz.blank) return;
   const int scale = det.scale;
   const int W = pol == kShaded ? relief.mask.cols : nz.n.cols;
@@ -541,13 +594,9 @@ void detect_mode(const Normalised& nz, const ReliefMask& relief, int pol,
   // leaves any disc of more than ~2 px radius.
   if (pol != kShaded) cv::medianBlur(mask, mask, 3);
   if (pol == kShaded) {
-    // A disc's two crescents fade out where its edge runs along the light;
-    // a closing about a third of a large disc's radius (~1 % of the image)
-    // joins them into one ring, whose convex hull is the disc (below).
-    const int rk = std::max(2, static_cast<int>(std::lround(0.012 * std::min(W, H))));
     // Isolated specks (noise, what is left of side lobes) go first, or the
-    // closing would tie them to a disc as spurs: a pixel stays if at least
-    // two of its 8 neighbours are set (thin rims keep theirs).
+    // closing below would tie them to a disc as spurs: a pixel stays if at
+    // least two of its 8 neighbours are set (thin rims keep theirs).
     Workspace& ws = workspace();
     cv::boxFilter(relief.mask, ws.count, CV_16U, cv::Size(3, 3), cv::Point(-1, -1), false,
                   cv::BORDER_CONSTANT);
@@ -555,9 +604,41 @@ void detect_mode(const Normalised& nz, const ReliefMask& relief, int pol,
     cv::compare(ws.count, 3 * 255, mask, cv::CMP_GE);
     ws.closed = mask;
     cv::bitwise_and(mask, relief.mask, mask);
-    cv::morphologyEx(
-        mask, mask, cv::MORPH_CLOSE,
-        cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * rk + 1, 2 * rk + 1)));
+    // A disc's two crescents fade out where its edge runs along the light;
+    // a closing of ~0.6 of the disc's radius joins them into one ring, whose
+    // convex hull is the disc (below). It must stay well below the gap
+    // between a disc and the nearest other mark (> 3.5 radii in the default
+    // layout), or it ties the disc to the bars. The discs' size is not known
+    // yet, but the target's is: the second moments of where the image shows
+    // edges, against those of the layout's outlines, give the scale
+    // (px per mm, geometric mean over the tilt). Clutter beyond the target
+    // can only enlarge it: bounded by ~1 % of the image, a third of a
+    // disc's radius when the target fills the image.
+    const int rk_max = std::max(2, static_cast<int>(std::lround(0.012 * std::min(W, H))));
+    int rk = rk_max;
+    if (disc_per_spread > 0) {
+      const cv::Moments m = cv::moments(mask, true);
+      const Sym2 C{m.mu20 / std::max(m.m00, 1.0), m.mu11 / std::max(m.m00, 1.0),
+                   m.mu02 / std::max(m.m00, 1.0)};
+      if (m.m00 >= 64 && C.det() > 0) {
+        const double r_disc = disc_per_spread * std::sqrt(std::sqrt(C.det()));
+        rk = std::clamp(static_cast<int>(std::lround(0.6 * r_disc)), 2, rk_max);
+      }
+    }
+    // An octagon (3x3 crosses, then 3x3 squares): within 6 % of a disc, at
+    // a cost that grows with its radius, not with its area. On a copy padded
+    // with empty ground: beyond the frame there is nothing to close over
+    // (with the image's border counted as set, as cv::erode does, a disc
+    // within rk of the frame would be tied to it, and dropped as clipped).
+    const int n_cross = rk / 2, n_square = rk - n_cross;
+    static const cv::Mat kCross = cv::getStructuringElement(cv::MORPH_CROSS, cv::Size(3, 3));
+    cv::Mat& pad = ws.padded;
+    cv::copyMakeBorder(mask, pad, rk, rk, rk, rk, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::dilate(pad, pad, kCross, cv::Point(-1, -1), n_cross);
+    cv::dilate(pad, pad, cv::Mat(), cv::Point(-1, -1), n_square);
+    cv::erode(pad, pad, kCross, cv::Point(-1, -1), n_cross);
+    cv::erode(pad, pad, cv::Mat(), cv::Point(-1, -1), n_square);
+    pad(cv::Rect(rk, rk, W, H)).copyTo(mask);
   }
 
   const double cos_tilt = std::cos(o.max_tilt_deg * kPi / 180);
@@ -1855,11 +1936,12 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
     throw std::invalid_argument(
         "find_fiducials got non-finite pixels: apply the loader's non-finite policy first");
   const Pattern pat = make_pattern(layout);
-  // The coarse pass's buffers stay for the next call; larger ones go.
+  // The coarse pass's buffers (a quarter of the pixels; the padded mask of
+  // detect_mode a little more) stay for the next call; larger ones go.
   struct TrimWorkspace {
     size_t keep;
     ~TrimWorkspace() { workspace().trim(keep); }
-  } trim{std::max<size_t>(luminance.total() / 4, size_t{1} << 18)};
+  } trim{std::max<size_t>(luminance.total() * 3 / 10, size_t{1} << 18)};
 
   std::vector<int> scales;
   // Coarse first (fast): a 2x-downsampled copy keeps discs of >= 5 px radius
@@ -1905,7 +1987,8 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
       }
       static const Normalised kNone;
       static const ReliefMask kNoRelief;
-      detect_mode(nz ? *nz : kNone, relief ? *relief : kNoRelief, pol, options, det);
+      detect_mode(nz ? *nz : kNone, relief ? *relief : kNoRelief, pol, options,
+                  pat.disc_per_spread, det);
       const auto& blobs = det.blobs[pol];
       RefinedCache refined(luminance, det, pol);
       const Identification id = identify(blobs, pat, options, refined, pol == kShaded);

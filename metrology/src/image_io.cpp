@@ -11,7 +11,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 
 namespace tactres {
 

@@ -81,7 +81,7 @@ TEST_CASE("decide_transfer: forced, then the file's tag, then the bit depth") {
   CHECK(decide_transfer(std::nullopt, none, false, 32).reason == "float, no colour tag");
 }
 
-TEST_CASE("load_image: untagged files follow the bit depth; tagged files follow their tag") {
+TEST_CASE("load_image: untagged files follow the bit depth, tagged files follow their tag") {
   TempFolder dir;
   const float code = 0.5f;
   const float as_srgb = srgb_decoded(code);

@@ -8,6 +8,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tactres/util/csv.h"
+
 namespace tactres {
 namespace {
 
@@ -104,13 +106,8 @@ std::string measurement_csv_header() {
 }
 
 std::string measurement_csv_rows(const Measurement& m, const MeasurementContext& ctx) {
-  auto quote = [](const std::string& s) {
-    if (s.find_first_of(",\"\n") == std::string::npos) return s;
-    std::string q = "\"";
-    for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-    return q + "\"";
-  };
-  auto num = [](double v, int digits) { return std::isfinite(v) ? fmt::format("{:.{}f}", v, digits) : std::string(); };
+  auto quote = [](const std::string& s) { return csv_cell(s); };
+  auto num = [](double v, int digits) { return csv_number(v, digits); };
   std::string out;
   for (const ElementResult& e : m.elements) {
     const bool ok = e.status == ElementStatus::ok;

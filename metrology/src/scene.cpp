@@ -11,8 +11,8 @@ extern "C" {  // mrcal ships C headers without C++ guards
 }
 #include <nlohmann/json.hpp>
 
-#include "tactres/targets/atomic_file.h"
-#include "tactres/targets/json_fields.h"
+#include "tactres/util/atomic_file.h"
+#include "tactres/util/json_fields.h"
 #include "tactres/targets/layout_json.h"
 
 namespace tactres {

@@ -20,18 +20,13 @@
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
 
+#include "tactres/util/rng.h"
+
 namespace tactres {
 
 namespace {
 
 bool finite_in(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
-
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
 
 // log(k!) without std::lgamma, which writes the global `signgam` in glibc
 // (a data race across the row threads). Exact table below 16, Stirling's

@@ -18,12 +18,14 @@
 #include <OpenImageIO/imageio.h>
 
 #include "tactres/metrology/image_io.h"
+#include "tactres/util/csv.h"
+#include "tactres/util/rng.h"
 #include "tactres/metrology/renderer.h"
 #include "tactres/metrology/sensor_model.h"
 #include "tactres/metrology/target_view.h"
 #include "tactres/metrology/truth.h"
 #include "tactres/reports/bench_html.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/layout_json.h"
 
 namespace tactres {
@@ -41,19 +43,8 @@ double thread_cpu_ms() {
 
 // ---------------------------------------------------------------- the suite
 
-// SplitMix64 (Steele, Lea & Flood, "Fast splittable pseudorandom number
-// generators", OOPSLA 2014): integer-only, so the suite's poses are the same
-// on every platform (std:: distributions are implementation-defined).
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-// The k-th uniform draw in [0, 1) of stream `stream`.
-double uniform01(std::uint64_t stream, std::uint64_t k) {
-  return double(splitmix64(splitmix64(0x7AC7E5BE4C4ull + stream) + k) >> 11) * 0x1.0p-53;
-}
+// The suite's poses come from util/rng.h (splitmix64, uniform01): the same
+// on every platform.
 
 // Blur and distance pairs whose true limits run from group 1 to group 4 with
 // the example wide-angle camera (560 px focal length: 21.5 px/mm at 26 mm).
@@ -632,15 +623,6 @@ std::vector<BenchSummary> summarize_bench(const std::vector<BenchRow>& rows) {
 
 namespace {
 
-std::string csv_cell(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"') out += '"';
-    out += c == '\n' || c == '\r' ? ' ' : c;
-  }
-  return out + "\"";
-}
 // Finite numbers only; anything else is an empty cell.
 std::string num(double v, int decimals) { return std::isfinite(v) ? fmt::format("{:.{}f}", v, decimals) : ""; }
 std::string num(const std::optional<double>& v, int decimals) { return v ? num(*v, decimals) : ""; }

@@ -13,7 +13,7 @@
 #include <doctest/doctest.h>
 
 #include "scene_fixtures.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 
 using namespace tactres;
 

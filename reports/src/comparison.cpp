@@ -8,7 +8,7 @@
 
 #include <fmt/format.h>
 
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 
 namespace tactres {
 namespace {

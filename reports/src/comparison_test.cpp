@@ -162,7 +162,7 @@ TEST_CASE("ranks: designs that differ within 2 combined sigma share a rank") {
   CHECK(*row(t, "B").rank == 2);
 }
 
-TEST_CASE("ranks: by mean of H and V, ties share a rank; failed and unresolved designs are unranked") {
+TEST_CASE("ranks: by mean of H and V, ties share a rank, failed and unresolved designs are unranked") {
   HandMeasurement failed = make("F", std::nullopt, std::nullopt);
   failed.usable = false;
   failed.problem = "no target found: check the focus";

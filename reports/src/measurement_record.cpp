@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 
 #include "tactres/metrology/measurement_io.h"
-#include "tactres/targets/atomic_file.h"
-#include "tactres/targets/json_fields.h"
+#include "tactres/util/atomic_file.h"
+#include "tactres/util/json_fields.h"
 #include "tactres/targets/layout_json.h"
 
 namespace tactres {

@@ -4,19 +4,13 @@
 
 #include <fmt/format.h>
 
+#include "tactres/util/csv.h"
+
 namespace tactres {
 namespace {
 
-std::string quote(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char ch : s) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
-  return q + "\"";
-}
-
-std::string num(std::optional<double> v, int digits) {
-  return v && std::isfinite(*v) ? fmt::format("{:.{}f}", *v, digits) : std::string();
-}
+std::string quote(const std::string& s) { return csv_cell(s); }
+std::string num(std::optional<double> v, int digits) { return csv_number(v, digits); }
 
 // group,element,lp_per_mm,beyond_finest,interp,interp_sd,interp_sigma,pct
 std::string orientation_cells(const OrientationSummary& o, bool measured) {

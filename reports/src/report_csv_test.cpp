@@ -67,7 +67,7 @@ TEST_CASE("the CSV header is the documented, stable column list") {
         "threshold,problem,files\n");
 }
 
-TEST_CASE("CSV rows: the reference first, then each design; failed rows keep their problem") {
+TEST_CASE("CSV rows: the reference first, then each design, failed rows keep their problem") {
   HandMeasurement ref = make("cmos", 8.0, 10.0);
   ref.h.group = 3;
   ref.h.element = 1;

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "tactres/metrology/image_io.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "test_measurements.h"
 
 namespace tactres {

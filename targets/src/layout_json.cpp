@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 
 namespace tactres {
 

@@ -9,7 +9,7 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/coverage.h"
 
 namespace tactres {

@@ -13,7 +13,7 @@
 
 #include <fmt/format.h>
 
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/coverage.h"
 
 namespace tactres {

@@ -9,7 +9,7 @@
 
 #include <doctest/doctest.h>
 
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/coverage.h"
 #include "tactres/targets/stl.h"
 

@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "scene_fixtures.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/layout_json.h"
 
 using namespace tactres;
@@ -135,7 +135,7 @@ TEST_CASE("measure: no target, saturated, all-NaN, wrong layout, wrong camera si
   CHECK_FALSE(fs::exists(f.dir.path / "out.csv"));
 }
 
-TEST_CASE("measure batch: one bad file never stops the others; the exit code is the worst") {
+TEST_CASE("measure batch: one bad file never stops the others, the exit code is the worst") {
   Fixture f;
   const fs::path bad = f.dir.path / "bad.png";
   std::ofstream(bad) << "not an image";

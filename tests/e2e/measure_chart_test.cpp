@@ -594,7 +594,7 @@ ChartRun render_photo(const TempDir& dir, const std::string& name, bool jpeg, co
 
 }  // namespace
 
-TEST_CASE("chart: uneven light, vignetting, dust specks and noise; digits and the large square are not bars") {
+TEST_CASE("chart: uneven light, vignetting, dust specks and noise, digits and the large square are not bars") {
   TempDir dir("chart");
   ChartDetectOptions d;
   d.largest_group = 0;
@@ -654,7 +654,7 @@ TEST_CASE("chart CLI: a photograph with no chart is exit 2 with a clear message"
   CHECK(m["chart"]["found"] == false);
 }
 
-TEST_CASE("chart CLI: a chart so blurred that nothing resolves is exit 2; the coarsest element is unresolved") {
+TEST_CASE("chart CLI: a chart so blurred that nothing resolves is exit 2, the coarsest element is unresolved") {
   TempDir dir("chart-cli");
   ChartScene c;
   c.view = view_at(36);

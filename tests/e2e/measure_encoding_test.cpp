@@ -74,7 +74,7 @@ int count_status(const nlohmann::json& j, const std::string& status) {
 
 }  // namespace
 
-TEST_CASE("encoding: untagged 16-bit linear PNG measured right by default; forced to sRGB, the output says so") {
+TEST_CASE("encoding: untagged 16-bit linear PNG measured right by default, forced to sRGB, the output says so") {
   TempDir dir("encoding");
   const fs::path layout = dir.path / "layout.json";
   write_layout_file(layout, default_layout());

@@ -15,7 +15,7 @@
 #include "scene_fixtures.h"
 #include "tactres/metrology/pose.h"
 #include "tactres/metrology/psf.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/coverage.h"
 #include "tactres/targets/layout_json.h"
 #include "tactres/targets/raster.h"

@@ -16,7 +16,7 @@
 #include "tactres/metrology/measurement_io.h"
 #include "tactres/metrology/profile_sampler.h"
 #include "tactres/metrology/target_view.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/coverage.h"
 #include "tactres/targets/layout_json.h"
 

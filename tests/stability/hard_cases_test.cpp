@@ -108,7 +108,7 @@ TEST_CASE("hard: the reference capture is usable and resolves G2-ish (baseline o
   CHECK(count_status(ref.m, ElementStatus::ok) >= 30);
 }
 
-TEST_CASE("hard: zero contrast (ink = ground) is no target (exit 2); a scene file refuses it") {
+TEST_CASE("hard: zero contrast (ink = ground) is no target (exit 2), a scene file refuses it") {
   Files f;
   Scene s = scene_with();
   s.ink_reflectance = s.ground_reflectance = 0.5;
@@ -140,7 +140,7 @@ TEST_CASE("hard: bars of zero contrast (fiducials and patch printed, bars not): 
     if (e.status == ElementStatus::ok) CHECK(e.m - 2 * e.m_sigma < 0.1);  // consistent with no modulation
 }
 
-TEST_CASE("hard: constant images (grey, black, white float; mid-grey 16-bit) are no target (exit 2)") {
+TEST_CASE("hard: constant images (grey, black, white float, mid-grey 16-bit) are no target (exit 2)") {
   Files f;
   for (float level : {0.5f, 0.0f, 1.0f}) {
     CAPTURE(level);
@@ -229,7 +229,7 @@ TEST_CASE("hard: black-clipped ink (reflectance 0, no dark signal or read noise)
   cli(f, p, m.m.usable ? 0 : 2);
 }
 
-TEST_CASE("hard: extreme blur: nothing resolved (exit 0, exit 1 against a requirement); far beyond: exit 2") {
+TEST_CASE("hard: extreme blur: nothing resolved (exit 0, exit 1 against a requirement), far beyond: exit 2") {
   Files f;
   // sigma 8 px: m(1 lp/mm) ~ 0.05, below the criterion everywhere, yet the
   // fiducials (13 px radius) are still found.

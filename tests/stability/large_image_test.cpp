@@ -10,7 +10,7 @@ using namespace tactres::testing;
 using namespace tactres::stability;
 namespace fs = std::filesystem;
 
-TEST_CASE("hard: a large image (8000x6000): measured, finite, exit 0; peak memory reported") {
+TEST_CASE("hard: a large image (8000x6000): measured, finite, exit 0, peak memory reported") {
   TempDir dir("large");
   const fs::path layout = dir.path / "layout.json";
   write_layout_file(layout, default_layout());

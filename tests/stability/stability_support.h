@@ -22,7 +22,7 @@
 #include "scene_fixtures.h"
 #include "tactres/metrology/measurement_io.h"
 #include "tactres/reports/measurement_record.h"
-#include "tactres/targets/atomic_file.h"
+#include "tactres/util/atomic_file.h"
 #include "tactres/targets/layout_json.h"
 
 extern char** environ;

@@ -1,0 +1,19 @@
+#pragma once
+// Wall-clock seconds since a start, for the per-stage timings that
+// measurements report (`timing_seconds`).
+
+#include <chrono>
+
+namespace tactres {
+
+class Stopwatch {
+ public:
+  Stopwatch() : start_(std::chrono::steady_clock::now()) {}
+  double seconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  void restart() { start_ = std::chrono::steady_clock::now(); }
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace tactres
