@@ -284,6 +284,17 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     fo.fit_contrast = false;
     fo.contrast = across_x ? ref.contrast_x : ref.contrast_y;
     fo.fit_shape = options.fit_psf_shape;
+    if (!ref.has_contrast(across_x)) {
+      // The patch shows nothing across this direction (a relief lit along
+      // these bars): there is no scale to measure m against.
+      r.status = ElementStatus::low_signal;
+      r.outline_px = sp.outline_px;
+      r.outline_valid = sp.in_view;
+      r.note = "the reference patch shows no contrast across these bars (a relief lit along them?): m cannot be "
+               "scaled";
+      M.elements.push_back(r);
+      continue;
+    }
     fit_s += grade_element(r, sp, fo, across_x ? ref.contrast_x_sigma : ref.contrast_y_sigma, options,
                            last_lsf[across_x], {}, encoding_mismatch);
     M.elements.push_back(r);

@@ -53,30 +53,52 @@ ReferenceResult fit_reference_patch(const cv::Mat& lum, const PatchScene& scene,
     fits = {fit_profile(px.data, fo), fit_profile(py.data, fo)};
   } else {
     // Choose the model that describes the patch across x, then fit the
-    // other direction with it.
-    fo.signature = Signature::albedo;
-    ProfileFit albedo_x = fit_profile(px.data, fo);
-    fo.signature = Signature::shading;
-    ProfileFit shading_x = fit_profile(px.data, fo);
-    auto cost = [](const ProfileFit& f) { return f.usable ? f.chi2_reduced : 1e300; };
-    ref.signature = cost(shading_x) < cost(albedo_x) ? Signature::shading : Signature::albedo;
-    fo.signature = ref.signature;
-    fits = {ref.signature == Signature::shading ? shading_x : albedo_x, fit_profile(py.data, fo)};
+    // other direction with it; across y when x shows nothing (a relief lit
+    // along x).
+    auto choose = [&](const ProfileData& first) {
+      fo.signature = Signature::albedo;
+      ProfileFit albedo = fit_profile(first, fo);
+      fo.signature = Signature::shading;
+      ProfileFit shading = fit_profile(first, fo);
+      auto cost = [](const ProfileFit& f) { return f.usable ? f.chi2_reduced : 1e300; };
+      ref.signature = cost(shading) < cost(albedo) ? Signature::shading : Signature::albedo;
+      fo.signature = ref.signature;
+      const bool chosen_usable = (ref.signature == Signature::shading ? shading : albedo).usable;
+      return std::make_pair(ref.signature == Signature::shading ? shading : albedo, chosen_usable);
+    };
+    auto [first, usable] = choose(px.data);
+    if (usable) {
+      fits = {first, fit_profile(py.data, fo)};
+    } else {
+      const ProfileFit second = choose(py.data).first;
+      fits = {fit_profile(px.data, fo), second};
+    }
   }
-  if (!fits.first.usable || !fits.second.usable) {
+  // A relief lit exactly along one axis shows no slope across the other:
+  // that direction's fit has nothing to fit. The other direction can still
+  // be measured; its elements say why the first cannot (measure.cpp).
+  const bool shading = ref.signature == Signature::shading;
+  if (!fits.first.usable && !fits.second.usable) {
+    ref.problem = "the reference patch could not be fitted: " + fits.first.failure;
+    return ref;
+  }
+  if ((!fits.first.usable || !fits.second.usable) && !shading) {
     ref.problem =
         "the reference patch could not be fitted: " + (fits.first.usable ? fits.second.failure : fits.first.failure);
     return ref;
   }
-  ref.contrast_x = fits.first.contrast;
-  ref.contrast_x_sigma = fits.first.contrast_sigma;
-  ref.contrast_y = fits.second.contrast;
-  ref.contrast_y_sigma = fits.second.contrast_sigma;
-  ref.chi2_x = fits.first.chi2_reduced;
-  ref.chi2_y = fits.second.chi2_reduced;
+  if (fits.first.usable) {
+    ref.contrast_x = fits.first.contrast;
+    ref.contrast_x_sigma = fits.first.contrast_sigma;
+    ref.chi2_x = fits.first.chi2_reduced;
+  }
+  if (fits.second.usable) {
+    ref.contrast_y = fits.second.contrast;
+    ref.contrast_y_sigma = fits.second.contrast_sigma;
+    ref.chi2_y = fits.second.chi2_reduced;
+  }
   // The patch must stand out of the noise, or nothing can be normalised.
-  auto significant = [](double c, double s) { return std::abs(c) > 5 * s && std::abs(c) > 1e-4; };
-  ref.usable = significant(ref.contrast_x, ref.contrast_x_sigma) || significant(ref.contrast_y, ref.contrast_y_sigma);
+  ref.usable = ref.has_contrast(true) || ref.has_contrast(false);
   if (!ref.usable) {
     ref.problem =
         "the reference patch shows no contrast where the layout puts it: is this the layout.json of the captured "
@@ -87,8 +109,10 @@ ReferenceResult fit_reference_patch(const cv::Mat& lum, const PatchScene& scene,
   // it: the fiducials matched, but the rest of the target differs. The
   // misfit must also be large against the patch's own contrast, or a
   // noise-free capture's tiny model error would trip it.
-  const double misfit = std::max(fits.first.residual_rms / std::abs(fits.first.contrast * fits.first.b0),
-                                 fits.second.residual_rms / std::abs(fits.second.contrast * fits.second.b0));
+  auto relative_misfit = [](const ProfileFit& f) {
+    return f.usable ? f.residual_rms / std::abs(f.contrast * f.b0) : 0.0;
+  };
+  const double misfit = std::max(relative_misfit(fits.first), relative_misfit(fits.second));
   if (worse_chi2(ref) > options.max_patch_chi2 && misfit > 0.25) {
     ref.usable = false;
     ref.layout_mismatch = true;

@@ -111,3 +111,21 @@ TEST_SUITE("e2e") {
     CHECK(median <= 0.005);
   }
 }
+
+TEST_CASE("relief lit exactly along x: the vertical bars are measured, the horizontal ones say why they are not") {
+  // Light along +x gives no slope across y: the reference patch shows no
+  // contrast for horizontal bars. That orientation cannot be scaled (graded
+  // low_signal with a note), and must not stop the other from being measured.
+  CaseSpec spec = issue_case("relief direct");
+  spec.name = "relief lit along x";
+  spec.scene.light_azimuth_deg = 0;
+  TempDir dir("lit-along-x");
+  const CaseResult r = run_case(spec, dir.path);
+  INFO(summary_line(r));
+  CHECK(r.exit_code == 0);
+  CHECK(r.usable);
+  CHECK_FALSE(r.horizontal.resolved_any);
+  REQUIRE(r.rel_error_v.has_value());
+  CHECK(std::abs(*r.rel_error_v) <= 0.015);
+  CHECK(r.falsely_resolved.empty());
+}

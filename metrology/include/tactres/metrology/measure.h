@@ -8,6 +8,7 @@
 // graded status and is never called resolved. No field is ever NaN.
 
 #include <array>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <utility>
@@ -81,6 +82,12 @@ struct ReferenceResult {
   double contrast_y = 0, contrast_y_sigma = 0;
   double chi2_x = 0, chi2_y = 0;  // reduced chi^2 of the patch fits
   bool layout_mismatch = false;   // refused: the model cannot describe the patch where the layout puts it
+  // A usable contrast scale across x (vertical bars) or y (horizontal bars):
+  // a relief lit along one axis has none across the other.
+  bool has_contrast(bool across_x) const {
+    const double c = across_x ? contrast_x : contrast_y, s = across_x ? contrast_x_sigma : contrast_y_sigma;
+    return std::abs(c) > 5 * s && std::abs(c) > 1e-4;
+  }
   std::vector<Vec2> outline_px;   // corners of the two patch strips in the image
 };
 
