@@ -13,6 +13,9 @@ namespace {
 // Relative standard uncertainty of ln m from the shading model itself
 // (docs/CONVENTIONS.md, "Criterion and limits").
 constexpr double kShadingModelLogSigma = 0.012;
+// Aliasing needs a misfit at least this large against the RMS of the fitted
+// signature: ~1.1 RMS is half the peak-to-peak of the bars' fundamental.
+constexpr double kAliasingMisfitShare = 1.1;
 }  // namespace
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
@@ -61,12 +64,13 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
   if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
     r.status = ElementStatus::fit_failed;
   } else if (!model_mismatch && fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0 &&
-             fit.residual_rms > 0.5 * std::abs(fo.contrast * fit.b0) * std::max(m, 0.05)) {
+             fit.residual_rms > kAliasingMisfitShare * fit.signal_rms * std::max(1.0, 0.05 / std::max(m, 1e-9))) {
     // The bars are not where the geometry puts them at this sampling: the
     // image shows another period or bar count. Both tests must agree: the
-    // misfit exceeds the noise, and it is a sizeable share of the bars' own
-    // modulation (a noise-free capture's tiny model error passes the first
-    // test alone).
+    // misfit exceeds the noise, and it is comparable to the bars' own
+    // fitted signal (as if m were at least 0.05), for both signatures alike
+    // (a relief's slope signal is not the level step times m). A
+    // noise-free capture's small model error passes the first test alone.
     r.status = ElementStatus::aliased;
     r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
                          r.px_per_bar, fit.chi2_reduced);

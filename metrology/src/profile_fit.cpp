@@ -132,6 +132,22 @@ class ProfileCost final : public ceres::CostFunction {
     return r.empty() ? 0.0 : std::sqrt(ss / r.size());
   }
 
+  // RMS of the signature alone (the model minus its background: the same
+  // parameters with no contrast), in image units, over the fitted bins.
+  double signal_rms(const double* x) const {
+    std::vector<double> with(bins_.size()), without(bins_.size());
+    double x0[kParamCount];
+    std::copy(x, x + kParamCount, x0);
+    x0[kContrast] = 0;
+    const double* p[] = {x};
+    const double* p0[] = {x0};
+    Evaluate(p, with.data(), nullptr);
+    Evaluate(p0, without.data(), nullptr);
+    double ss = 0;
+    for (size_t k = 0; k < with.size(); ++k) ss += std::pow((with[k] - without[k]) * d_.sigma[bins_[k]], 2);
+    return with.empty() ? 0.0 : std::sqrt(ss / with.size());
+  }
+
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
     const double* x = params[0];
     const bool want_j = jacobians && jacobians[0];
@@ -301,6 +317,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   const int dof = std::max(1, out.residual_count - free_params);
   out.chi2_reduced = 2 * summary.final_cost / dof;
   out.residual_rms = cost->residual_rms(x);
+  out.signal_rms = cost->signal_rms(x);
 
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;

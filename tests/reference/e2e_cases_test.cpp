@@ -129,3 +129,25 @@ TEST_CASE("relief lit exactly along x: the vertical bars are measured, the horiz
   CHECK(std::abs(*r.rel_error_v) <= 0.015);
   CHECK(r.falsely_resolved.empty());
 }
+
+TEST_CASE("relief, noise-free, limit at ~2.8 px per bar: the next element is not called aliased, both limits interpolate") {
+  // A noise-free capture's bins have a tiny noise floor, so the model's small
+  // error gives a large reduced chi^2 near the sampling limit. Aliasing
+  // also needs a misfit comparable to the bars' own fitted signal, measured
+  // the same way for a relief's slope signal as for printed bars.
+  CaseSpec spec = issue_case("relief direct");
+  spec.name = "relief near the sampling limit";
+  spec.scene.sigma_mm = 0.0905;
+  spec.scene.light_azimuth_deg = -35;
+  TempDir dir("relief-near-limit");
+  const CaseResult r = run_case(spec, dir.path);
+  INFO(summary_line(r));
+  CHECK(r.usable);
+  for (const auto* orientation : {"horizontal_bars", "vertical_bars"}) {
+    CAPTURE(orientation);
+    const auto rel = r.rel_error(orientation);
+    REQUIRE_MESSAGE(rel.has_value(), "no interpolated limit");
+    CHECK(std::abs(*rel) <= 0.015);
+  }
+  CHECK(r.falsely_resolved.empty());
+}

@@ -96,6 +96,7 @@ struct ProfileFit {
   double var_log_nu0 = 0, var_beta = 0, cov_log_nu0_beta = 0;
   double chi2_reduced = 0;
   double residual_rms = 0;  // RMS of model - data, in image units
+  double signal_rms = 0;    // RMS of the fitted signature alone (model - background), image units
   int residual_count = 0;
   std::string solver_report;
 
