@@ -5,7 +5,7 @@
 
 #include "command.h"
 #include "exit_codes.h"
-#include "tactres/reports/bench.h"
+#include "tactres/bench/bench.h"
 
 namespace tactres::cli {
 

@@ -5,7 +5,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "tactres/metrology/measurement_io.h"
+#include "tactres/measure/measurement_io.h"
 #include "tactres/util/atomic_file.h"
 #include "tactres/util/json_fields.h"
 #include "tactres/targets/layout_json.h"

@@ -9,7 +9,7 @@
 #include <regex>
 #include <string>
 
-#include "tactres/metrology/image_io.h"
+#include "tactres/camera/image_io.h"
 #include "tactres/util/atomic_file.h"
 #include "test_measurements.h"
 

@@ -17,7 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "scene_fixtures.h"
-#include "tactres/metrology/chart_measure.h"
+#include "tactres/measure/chart_measure.h"
 #include "tactres/targets/mil_std_chart.h"
 
 using namespace tactres;

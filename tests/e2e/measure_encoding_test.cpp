@@ -13,7 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "scene_fixtures.h"
-#include "tactres/metrology/transfer_curve.h"
+#include "tactres/camera/transfer_curve.h"
 #include "tactres/targets/layout_json.h"
 
 using namespace tactres;

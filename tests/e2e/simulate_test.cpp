@@ -13,8 +13,8 @@
 #include <opencv2/core.hpp>
 
 #include "scene_fixtures.h"
-#include "tactres/metrology/pose.h"
-#include "tactres/metrology/psf.h"
+#include "tactres/locate/pose.h"
+#include "tactres/simulate/effects/psf.h"
 #include "tactres/util/atomic_file.h"
 #include "tactres/targets/coverage.h"
 #include "tactres/targets/layout_json.h"

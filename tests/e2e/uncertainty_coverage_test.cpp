@@ -5,7 +5,7 @@
 #include <doctest/doctest.h>
 
 #include "scene_fixtures.h"
-#include "tactres/metrology/sensor_model.h"
+#include "tactres/simulate/effects/sensor_model.h"
 
 using namespace tactres;
 using namespace tactres::testing;

@@ -16,12 +16,12 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "tactres/metrology/camera_model.h"
-#include "tactres/metrology/image_io.h"
-#include "tactres/metrology/measure.h"
-#include "tactres/metrology/measurement_io.h"
-#include "tactres/metrology/profile_fit.h"
-#include "tactres/metrology/scene.h"
+#include "tactres/camera/camera_model.h"
+#include "tactres/camera/image_io.h"
+#include "tactres/measure/measure.h"
+#include "tactres/measure/measurement_io.h"
+#include "tactres/profiles/profile_fit.h"
+#include "tactres/simulate/scene.h"
 #include "tactres/reports/measurement_record.h"
 #include "tactres/targets/coverage.h"
 #include "tactres/targets/layout.h"

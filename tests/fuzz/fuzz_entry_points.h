@@ -16,7 +16,7 @@
 #include <span>
 #include <string>
 
-#include "tactres/metrology/profile_fit.h"
+#include "tactres/profiles/profile_fit.h"
 
 namespace tactres::fuzz {
 

@@ -13,9 +13,9 @@
 
 #include "fuzz_entry_points.h"
 #include "scene_fixtures.h"
-#include "tactres/metrology/measurement_io.h"
-#include "tactres/metrology/profile_sampler.h"
-#include "tactres/metrology/target_view.h"
+#include "tactres/measure/measurement_io.h"
+#include "tactres/profiles/profile_sampler.h"
+#include "tactres/camera/target_view.h"
 #include "tactres/util/atomic_file.h"
 #include "tactres/targets/coverage.h"
 #include "tactres/targets/layout_json.h"

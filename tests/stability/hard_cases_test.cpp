@@ -10,8 +10,8 @@
 #include <OpenImageIO/imageio.h>
 
 #include "stability_support.h"
-#include "tactres/metrology/pose.h"
-#include "tactres/metrology/sensor_model.h"
+#include "tactres/locate/pose.h"
+#include "tactres/simulate/effects/sensor_model.h"
 
 using namespace tactres;
 using namespace tactres::testing;

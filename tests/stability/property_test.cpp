@@ -16,7 +16,7 @@
 #include <random>
 
 #include "stability_support.h"
-#include "tactres/metrology/sensor_model.h"
+#include "tactres/simulate/effects/sensor_model.h"
 
 using namespace tactres;
 using namespace tactres::testing;

@@ -20,7 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "scene_fixtures.h"
-#include "tactres/metrology/measurement_io.h"
+#include "tactres/measure/measurement_io.h"
 #include "tactres/reports/measurement_record.h"
 #include "tactres/util/atomic_file.h"
 #include "tactres/targets/layout_json.h"

@@ -9,12 +9,12 @@
 #include <filesystem>
 #include <string>
 
-#include "tactres/metrology/camera_model.h"
-#include "tactres/metrology/image_io.h"
-#include "tactres/metrology/measure.h"
-#include "tactres/metrology/renderer.h"
-#include "tactres/metrology/scene.h"
-#include "tactres/metrology/truth.h"
+#include "tactres/camera/camera_model.h"
+#include "tactres/camera/image_io.h"
+#include "tactres/measure/measure.h"
+#include "tactres/simulate/renderer.h"
+#include "tactres/simulate/scene.h"
+#include "tactres/simulate/truth.h"
 #include "tactres/targets/layout.h"
 
 namespace tactres::testing {

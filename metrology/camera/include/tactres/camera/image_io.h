@@ -1,0 +1,62 @@
+#pragma once
+// Image files in and out, through OpenImageIO.
+//
+// Loading follows an explicit policy (docs/CONVENTIONS.md, "Pixels"):
+//  - any format OpenImageIO reads; integer formats are scaled to [0, 1] of
+//    their full range, float formats are kept as they are;
+//  - colour becomes Rec. 709 luminance of the linear values, or one channel;
+//  - the transfer curve is explicit: forced, or what the file's colour tags
+//    say, or by bit depth when it has none (transfer_curve.h);
+//  - non-finite pixels follow a named policy: reject the image, or mask
+//    them (NaN marks "no data" downstream and is never averaged).
+
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/core/mat.hpp>
+
+#include "tactres/camera/transfer_curve.h"
+
+namespace tactres {
+
+// The input exists but cannot be used (truncated, undecodable, all NaN...).
+// Maps to exit code 2; plain std::runtime_error (missing file) maps to 3.
+class UnusableInput : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class NonFinitePolicy { reject, mask };
+
+struct LoadOptions {
+  int channel = -1;  // -1: luminance; else 0-based channel index
+  std::optional<TransferCurve> transfer;  // nullopt: auto (tags, then bit depth)
+  NonFinitePolicy non_finite = NonFinitePolicy::mask;
+  void validate() const;
+};
+
+NonFinitePolicy non_finite_policy_from_string(const std::string& s);  // reject | mask
+
+struct LoadedImage {
+  cv::Mat luminance;          // CV_32F, linear; NaN where masked
+  int width = 0, height = 0, channels = 0;
+  std::string pixel_format;   // e.g. "uint8", "uint16", "half", "float"
+  int bits_per_sample = 0;
+  bool integer_format = false;
+  TransferDecision transfer;  // the curve applied, and why
+  long long non_finite_pixels = 0;
+  double saturation_level = 0;  // value at which integer pixels clip (1.0); 0 for float
+};
+
+// Throws std::runtime_error (missing/unreadable file, exit 3) or
+// UnusableInput (undecodable or truncated data, exit 2), naming the path.
+LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& options = {});
+
+// Writes one channel, or 8-bit BGR colour, atomically. CV_32F goes out as float (TIFF/EXR only),
+// CV_8U / CV_16U as integers; `bits` (<= 16) are the significant bits of a
+// 16-bit image, scaled to the container's full range so readers see [0, 1].
+void write_image(const std::filesystem::path& path, const cv::Mat& image, int bits = 0);
+
+}  // namespace tactres

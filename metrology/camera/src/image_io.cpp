@@ -1,0 +1,196 @@
+#include "tactres/camera/image_io.h"
+
+#include <cmath>
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "tactres/util/atomic_file.h"
+
+namespace tactres {
+
+void LoadOptions::validate() const {
+  if (channel < -1 || channel > 63)
+    throw std::invalid_argument("--channel must be -1 (luminance) or a channel index 0..63");
+}
+
+NonFinitePolicy non_finite_policy_from_string(const std::string& s) {
+  if (s == "reject") return NonFinitePolicy::reject;
+  if (s == "mask") return NonFinitePolicy::mask;
+  throw std::invalid_argument("unknown non-finite policy '" + s + "': use reject or mask");
+}
+
+namespace {
+
+// The colour chunks of a PNG file (sRGB, iCCP, gAMA), read from the chunk
+// list before the image data. OpenImageIO reports an untagged PNG as
+// "sRGB", exactly as one with an sRGB chunk, so the chunks themselves are
+// the only way to tell "says sRGB" from "says nothing".
+struct PngColourChunks {
+  bool srgb = false, iccp = false, gama = false;
+};
+
+PngColourChunks png_colour_chunks(const std::filesystem::path& path) {
+  PngColourChunks found;
+  std::ifstream in(path, std::ios::binary);
+  unsigned char header[8];
+  if (!in.read(reinterpret_cast<char*>(header), 8)) return found;
+  // Colour chunks must precede IDAT (PNG spec, 5.6); stop there.
+  for (int chunk = 0; chunk < 1000; ++chunk) {
+    unsigned char head[8];
+    if (!in.read(reinterpret_cast<char*>(head), 8)) break;
+    const uint32_t length = (uint32_t(head[0]) << 24) | (uint32_t(head[1]) << 16) | (uint32_t(head[2]) << 8) | head[3];
+    const std::string type(reinterpret_cast<const char*>(head + 4), 4);
+    if (type == "IDAT" || type == "IEND") break;
+    found.srgb |= type == "sRGB";
+    found.iccp |= type == "iCCP";
+    found.gama |= type == "gAMA";
+    if (!in.seekg(std::streamoff(length) + 4, std::ios::cur)) break;  // data and CRC
+  }
+  return found;
+}
+
+// The file's explicit statement of its encoding, if it makes one.
+ColourTag colour_tag_of(const std::filesystem::path& path, const OIIO::ImageInput& input,
+                        const OIIO::ImageSpec& spec) {
+  const std::string format = input.format_name();
+  const float gamma = spec.get_float_attribute("oiio:Gamma", 0.0f);
+  auto power_tag = [&](const std::string& what) {
+    return ColourTag{true, TransferCurve::power(std::clamp(double(gamma), 0.2, 5.0)),
+                     fmt::format("{} (gamma {:.3g})", what, gamma)};
+  };
+  if (format == "png") {
+    const PngColourChunks c = png_colour_chunks(path);
+    if (c.srgb) return {true, TransferCurve::srgb(), "PNG sRGB chunk"};
+    // Reading an ICC profile's curves needs a colour-management library;
+    // profiles in PNGs are overwhelmingly sRGB or close to it.
+    if (c.iccp) return {true, TransferCurve::srgb(), "PNG iCCP profile (read as sRGB)"};
+    if (c.gama && gamma > 0) return power_tag("PNG gAMA chunk");
+    return {};
+  }
+  if (spec.find_attribute("ICCProfile")) return {true, TransferCurve::srgb(), "embedded ICC profile (read as sRGB)"};
+  if (spec.get_int_attribute("Exif:ColorSpace", 0) == 1) return {true, TransferCurve::srgb(), "EXIF ColorSpace sRGB"};
+  if (format == "openexr") return {true, TransferCurve::linear(), "OpenEXR (linear by definition)"};
+  if (gamma > 0) return power_tag(format + " gamma attribute");
+  return {};
+}
+
+std::string format_name(OIIO::TypeDesc t) {
+  if (t == OIIO::TypeDesc::UINT8) return "uint8";
+  if (t == OIIO::TypeDesc::UINT16) return "uint16";
+  if (t == OIIO::TypeDesc::HALF) return "half";
+  if (t == OIIO::TypeDesc::FLOAT) return "float";
+  return t.c_str();
+}
+
+}  // namespace
+
+LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& options) {
+  options.validate();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw std::runtime_error(fmt::format("cannot read image {}: no such file", path.string()));
+  auto in = OIIO::ImageInput::open(path.string());
+  if (!in)
+    throw UnusableInput(fmt::format("cannot decode image {}: {} (is it a complete image file?)",
+                                    path.string(), OIIO::geterror()));
+  const OIIO::ImageSpec spec = in->spec();
+  LoadedImage out;
+  out.width = spec.width;
+  out.height = spec.height;
+  out.channels = spec.nchannels;
+  out.pixel_format = format_name(spec.format);
+  out.bits_per_sample = spec.get_int_attribute("oiio:BitsPerSample", static_cast<int>(spec.format.size() * 8));
+  out.integer_format = !spec.format.is_floating_point();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    throw UnusableInput(fmt::format("image {} has no pixels", path.string()));
+  if (options.channel >= spec.nchannels)
+    throw std::invalid_argument(fmt::format("--channel {} does not exist: {} has {} channel(s)",
+                                            options.channel, path.string(), spec.nchannels));
+
+  std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data()))
+    throw UnusableInput(fmt::format("cannot decode image {}: {} (truncated or corrupt file?)",
+                                    path.string(), in->geterror()));
+
+  out.transfer = decide_transfer(options.transfer, colour_tag_of(path, *in, spec), out.integer_format,
+                                 out.bits_per_sample);
+  in->close();
+  const TransferCurve& curve = out.transfer.curve;
+  out.saturation_level = out.integer_format ? 1.0 : 0.0;
+
+  out.luminance.create(spec.height, spec.width, CV_32F);
+  const int nc = spec.nchannels;
+  const bool colour = options.channel < 0 && nc >= 3;
+  for (int y = 0; y < spec.height; ++y) {
+    float* row = out.luminance.ptr<float>(y);
+    const float* src = pixels.data() + static_cast<size_t>(y) * spec.width * nc;
+    for (int x = 0; x < spec.width; ++x) {
+      const float* p = src + static_cast<size_t>(x) * nc;
+      auto lin = [&](float v) { return curve.to_linear(v); };
+      float v;
+      if (colour) v = 0.2126f * lin(p[0]) + 0.7152f * lin(p[1]) + 0.0722f * lin(p[2]);
+      else v = lin(p[options.channel < 0 ? 0 : options.channel]);
+      if (!std::isfinite(v)) {
+        ++out.non_finite_pixels;
+        v = std::numeric_limits<float>::quiet_NaN();
+      }
+      row[x] = v;
+    }
+  }
+  const long long total = static_cast<long long>(spec.width) * spec.height;
+  if (out.non_finite_pixels == total)
+    throw UnusableInput(fmt::format("image {} has no finite pixel (all NaN or Inf)", path.string()));
+  if (out.non_finite_pixels > 0 && options.non_finite == NonFinitePolicy::reject)
+    throw UnusableInput(fmt::format(
+        "image {} has {} non-finite pixel(s) (NaN/Inf); use --non-finite mask to measure around them",
+        path.string(), out.non_finite_pixels));
+  return out;
+}
+
+void write_image(const std::filesystem::path& path, const cv::Mat& image, int bits) {
+  CV_Assert(image.channels() == 1 || (image.channels() == 3 && image.depth() == CV_8U));
+  OIIO::TypeDesc type;
+  // `data` must never alias the caller's pixels: the conversions below
+  // would otherwise write into the caller's image.
+  cv::Mat data;
+  if (image.channels() == 3) cv::cvtColor(image, data, cv::COLOR_BGR2RGB);  // OpenCV is BGR
+  else data = image;
+  switch (image.depth()) {
+    case CV_8U: type = OIIO::TypeDesc::UINT8; break;
+    case CV_16U:
+      type = OIIO::TypeDesc::UINT16;
+      if (bits > 0 && bits < 16) {  // scale significant bits to the full 16-bit range
+        cv::Mat scaled;
+        image.convertTo(scaled, CV_16U, 65535.0 / ((1 << bits) - 1));
+        data = scaled;
+      }
+      break;
+    case CV_32F: type = OIIO::TypeDesc::FLOAT; break;
+    default: throw std::invalid_argument("write_image: unsupported pixel type");
+  }
+  const std::string ext = path.extension().string();
+  if (type == OIIO::TypeDesc::FLOAT && !(ext == ".tif" || ext == ".tiff" || ext == ".exr"))
+    throw std::invalid_argument(fmt::format(
+        "{}: a float image needs .tif, .tiff or .exr (or add a sensor effect to quantise)", path.string()));
+  AtomicOutput out(path);
+  auto writer = OIIO::ImageOutput::create(out.temp_path().string());
+  if (!writer)
+    throw std::runtime_error(fmt::format("cannot write {}: no writer for this extension", path.string()));
+  OIIO::ImageSpec spec(image.cols, image.rows, image.channels(), type);
+  spec.attribute("oiio:ColorSpace", "Linear");  // tactres images hold linear values
+  if (!writer->open(out.temp_path().string(), spec))
+    throw std::runtime_error(fmt::format("cannot write {}: {}", path.string(), writer->geterror()));
+  cv::Mat contiguous = data.isContinuous() ? data : data.clone();
+  if (!writer->write_image(type, contiguous.data) || !writer->close())
+    throw std::runtime_error(fmt::format("cannot write {}: {}", path.string(), writer->geterror()));
+  out.commit();
+}
+
+}  // namespace tactres

@@ -1,0 +1,124 @@
+// The pixel-encoding policy of load_image (docs/CONVENTIONS.md, "Pixels
+// in"), on files written by OpenImageIO with and without colour tags.
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include <OpenImageIO/imageio.h>
+#include <doctest/doctest.h>
+
+#include "tactres/camera/image_io.h"
+
+using namespace tactres;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct TempFolder {
+  fs::path path = fs::temp_directory_path() / ("tactres-image-io-" + std::to_string(::getpid()));
+  TempFolder() { fs::create_directories(path); }
+  ~TempFolder() { fs::remove_all(path); }
+};
+
+// A 4x4 grey image whose every pixel holds `code` (in [0, 1]), with the
+// given OpenImageIO colour attributes (none: an untagged file).
+fs::path write_grey(const fs::path& file, OIIO::TypeDesc type, float code, const std::string& colour_space = "",
+                    float gamma = 0) {
+  auto out = OIIO::ImageOutput::create(file.string());
+  REQUIRE(out);
+  OIIO::ImageSpec spec(4, 4, 1, type);
+  if (!colour_space.empty()) spec.attribute("oiio:ColorSpace", colour_space);
+  if (gamma > 0) spec.attribute("oiio:Gamma", gamma);
+  REQUIRE(out->open(file.string(), spec));
+  const float pixels[16] = {code, code, code, code, code, code, code, code,
+                            code, code, code, code, code, code, code, code};
+  REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, pixels));
+  REQUIRE(out->close());
+  return file;
+}
+
+float srgb_decoded(float v) { return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f); }
+
+}  // namespace
+
+TEST_CASE("transfer curves: names, options, round trips, and the odd extension below 0") {
+  CHECK(TransferCurve::linear().name() == "linear");
+  CHECK(TransferCurve::srgb().option() == "--transfer srgb");
+  CHECK(TransferCurve::power(2.2).name() == "gamma 2.2");
+  CHECK(TransferCurve::power(1.004).name() == "linear");  // close enough to 1 is linear
+  CHECK_FALSE(transfer_from_option("auto").has_value());
+  CHECK(transfer_from_option("gamma:1.8")->gamma == doctest::Approx(1.8));
+  CHECK_THROWS_AS(transfer_from_option("gamma:"), std::invalid_argument);
+  CHECK_THROWS_AS(transfer_from_option("gamma:9"), std::invalid_argument);
+  CHECK_THROWS_AS(transfer_from_option("sRGB2"), std::invalid_argument);
+  for (const TransferCurve& c : {TransferCurve::linear(), TransferCurve::srgb(), TransferCurve::power(2.4)})
+    for (float v : {-0.3f, 0.0f, 0.002f, 0.2f, 0.5f, 1.0f, 1.7f}) {
+      CAPTURE(c.name());
+      CAPTURE(v);
+      CHECK(c.to_code(c.to_linear(v)) == doctest::Approx(v).epsilon(1e-5));
+    }
+  CHECK(TransferCurve::srgb().to_linear(0.5f) == doctest::Approx(0.21404).epsilon(1e-4));
+  CHECK(TransferCurve::srgb().to_linear(-0.5f) == doctest::Approx(-0.21404).epsilon(1e-4));
+  CHECK(std::isnan(TransferCurve::power(2.2).to_linear(NAN)));
+}
+
+TEST_CASE("decide_transfer: forced, then the file's tag, then the bit depth") {
+  const ColourTag none;
+  const ColourTag srgb_tag{true, TransferCurve::srgb(), "PNG sRGB chunk"};
+  CHECK(decide_transfer(TransferCurve::linear(), srgb_tag, true, 8).curve.name() == "linear");
+  CHECK(decide_transfer(TransferCurve::linear(), srgb_tag, true, 8).reason == "forced by --transfer linear");
+  CHECK(decide_transfer(std::nullopt, srgb_tag, true, 16).curve.name() == "srgb");
+  CHECK_FALSE(decide_transfer(std::nullopt, srgb_tag, true, 16).guessed);
+  const TransferDecision d8 = decide_transfer(std::nullopt, none, true, 8);
+  CHECK(d8.curve.name() == "srgb");
+  CHECK(d8.reason == "8-bit, no colour tag");
+  CHECK(d8.guessed);
+  const TransferDecision d16 = decide_transfer(std::nullopt, none, true, 16);
+  CHECK(d16.curve.name() == "linear");
+  CHECK(d16.reason == "16-bit, no colour tag");
+  CHECK(decide_transfer(std::nullopt, none, false, 32).reason == "float, no colour tag");
+}
+
+TEST_CASE("load_image: untagged files follow the bit depth, tagged files follow their tag") {
+  TempFolder dir;
+  const float code = 0.5f;
+  const float as_srgb = srgb_decoded(code);
+  struct Case {
+    std::string file;
+    OIIO::TypeDesc type;
+    std::string colour_space;
+    float gamma;
+    std::string curve;
+    std::string reason_has;
+  };
+  const Case cases[] = {
+      {"untagged16.png", OIIO::TypeDesc::UINT16, "", 0, "linear", "16-bit, no colour tag"},
+      {"untagged8.png", OIIO::TypeDesc::UINT8, "", 0, "srgb", "8-bit, no colour tag"},
+      {"srgb16.png", OIIO::TypeDesc::UINT16, "sRGB", 0, "srgb", "PNG sRGB chunk"},
+      {"linear8.png", OIIO::TypeDesc::UINT8, "Linear", 0, "linear", "PNG gAMA chunk"},
+      {"gamma16.png", OIIO::TypeDesc::UINT16, "GammaCorrected2.2", 2.2f, "gamma 2.2", "PNG gAMA chunk"},
+      {"untagged16.tif", OIIO::TypeDesc::UINT16, "", 0, "linear", "16-bit, no colour tag"},
+      {"untagged8.tif", OIIO::TypeDesc::UINT8, "", 0, "srgb", "8-bit, no colour tag"},
+      {"srgb16.tif", OIIO::TypeDesc::UINT16, "sRGB", 0, "srgb", "EXIF ColorSpace sRGB"},
+      {"float.tif", OIIO::TypeDesc::FLOAT, "", 0, "linear", "float, no colour tag"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.file);
+    const fs::path file = write_grey(dir.path / c.file, c.type, code, c.colour_space, c.gamma);
+    const LoadedImage img = load_image(file);
+    CHECK(img.transfer.curve.name() == c.curve);
+    CHECK(img.transfer.reason.find(c.reason_has) != std::string::npos);
+    const float expected = c.curve == "srgb" ? as_srgb : c.curve == "linear" ? code : std::pow(code, 2.2f);
+    // 8-bit codes are 1/255 steps: 0.5 is stored as 128/255.
+    const double tolerance = c.type == OIIO::TypeDesc::UINT8 ? 0.005 : 1e-4;
+    CHECK(std::abs(img.luminance.at<float>(1, 1) - expected) <= tolerance);
+    // Forcing the other reading changes the values, and says so.
+    LoadOptions forced;
+    forced.transfer = c.curve == "linear" ? TransferCurve::srgb() : TransferCurve::linear();
+    const LoadedImage other = load_image(file, forced);
+    CHECK(other.transfer.reason.rfind("forced by --transfer", 0) == 0);
+    CHECK(std::abs(other.luminance.at<float>(1, 1) - img.luminance.at<float>(1, 1)) > 0.05);
+  }
+}

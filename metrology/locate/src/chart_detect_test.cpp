@@ -1,0 +1,113 @@
+// detect_chart on exact renders of the generated MIL-STD-150A chart (the
+// targets module's area-coverage raster): positive and negative, rotated
+// by 90 and 180 degrees, mirrored; the anchors; no chart.
+#include <cmath>
+
+#include <doctest/doctest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "tactres/locate/chart_detect.h"
+#include "tactres/targets/mil_std_chart.h"
+#include "tactres/targets/raster.h"
+
+using namespace tactres;
+
+namespace {
+
+constexpr double kPxPerMm = 30;
+
+// Groups 0..3 at 30 px/mm, printed (ink 0.05 on 0.85), slightly blurred.
+cv::Mat chart_image(bool negative) {
+  MilStdChartOptions o;
+  o.first_group = 0;
+  o.last_group = 3;
+  const ImageF cov = coverage_raster(make_mil_std_chart(o), kPxPerMm);
+  cv::Mat img(cov.height, cov.width, CV_32F);
+  for (int y = 0; y < cov.height; ++y)
+    for (int x = 0; x < cov.width; ++x) {
+      const float c = cov.pixels[size_t(y) * cov.width + x];
+      img.at<float>(y, x) = negative ? 0.05f + 0.8f * c : 0.85f - 0.8f * c;
+    }
+  cv::GaussianBlur(img, img, {0, 0}, 0.8);
+  return img;
+}
+
+// The elements a 30 px/mm render shows clearly: groups 0 and 1, and group 2
+// down to element 3 (2.4 px per bar).
+void check_indices(const ChartDetection& d) {
+  REQUIRE(d.found);
+  int found = 0;
+  for (const ChartElement& e : d.elements) {
+    CHECK(e.element >= 1);
+    CHECK(e.element <= 6);
+    if (!d.patterns[e.h].predicted) ++found;
+    // The period follows the absolute index: 30 px/mm over lp/mm.
+    const double want = kPxPerMm / std::exp2(e.group + (e.element - 1) / 6.0);
+    CHECK(e.period_px == doctest::Approx(want).epsilon(0.12));
+  }
+  CHECK(found >= 14);
+  CHECK(d.elements.front().group == 0);
+  CHECK(d.elements.front().element == 1);
+}
+
+}  // namespace
+
+TEST_CASE("chart detection: positive and negative, rotated and mirrored, anchored by --largest-group") {
+  ChartDetectOptions o;
+  o.largest_group = 0;
+  for (bool negative : {false, true}) {
+    const cv::Mat img = chart_image(negative);
+    cv::Mat r90, r180, mirrored;
+    const cv::Mat* upright = &img;
+    cv::rotate(img, r90, cv::ROTATE_90_CLOCKWISE);
+    cv::rotate(img, r180, cv::ROTATE_180);
+    cv::flip(img, mirrored, 1);
+    for (const auto& [view, name] : {std::pair(upright, "upright"), std::pair(static_cast<const cv::Mat*>(&r90), "90 deg"), std::pair(static_cast<const cv::Mat*>(&r180), "180 deg"),
+                                     std::pair(static_cast<const cv::Mat*>(&mirrored), "mirrored")}) {
+      CAPTURE(negative);
+      CAPTURE(std::string(name));
+      const ChartDetection d = detect_chart(*view, o);
+      CHECK(d.light_bars == negative);
+      CHECK(d.anchor == ChartAnchor::largest_group);
+      check_indices(d);
+    }
+  }
+}
+
+TEST_CASE("chart detection: --px-per-mm anchors the group, no anchor keeps indices relative") {
+  const cv::Mat img = chart_image(false);
+  ChartDetectOptions o;
+  o.px_per_mm = kPxPerMm;
+  ChartDetection d = detect_chart(img, o);
+  CHECK(d.anchor == ChartAnchor::px_per_mm);
+  check_indices(d);
+  // Frame only group 1 and finer: the largest found is G1E1 by the scale.
+  const cv::Mat crop = img(cv::Rect(img.cols * 2 / 3, 0, img.cols / 3, img.rows * 2 / 3)).clone();
+  d = detect_chart(crop, o);
+  REQUIRE(d.found);
+  CHECK(d.elements.front().group == 1);
+  CHECK(d.elements.front().element == 1);
+  // Without an anchor the same crop is relative: its largest is "G0E1".
+  d = detect_chart(crop, {});
+  REQUIRE(d.found);
+  CHECK(d.anchor == ChartAnchor::none);
+  CHECK(d.elements.front().group == 0);
+  CHECK(d.elements.front().element == 1);
+  CHECK(d.anchor_description.find("relative") != std::string::npos);
+}
+
+TEST_CASE("chart detection: no chart, and bad options") {
+  cv::Mat noise(300, 400, CV_32F);
+  cv::randn(noise, 0.5, 0.05);
+  const ChartDetection d = detect_chart(noise, {});
+  CHECK_FALSE(d.found);
+  CHECK(d.problem.find("no USAF-1951 chart") != std::string::npos);
+  ChartDetectOptions o;
+  o.largest_group = 1;
+  o.px_per_mm = 10;
+  CHECK_THROWS_AS(o.validate(), std::invalid_argument);
+  o = {};
+  o.largest_element = 7;
+  CHECK_THROWS_AS(o.validate(), std::invalid_argument);
+}

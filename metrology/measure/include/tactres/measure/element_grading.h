@@ -1,0 +1,60 @@
+#pragma once
+// Grading one element's profile, and deciding the limits from the graded
+// elements: the single place where a sampled strip becomes a status and
+// m(f) (docs/CONVENTIONS.md, "Element statuses"), shared by layout mode
+// (measure.cpp) and chart mode (chart_measure.cpp), so that both grade by
+// the same rules.
+//
+// grade_element() contract:
+// - In: `r` with group, element, orientation, lp_per_mm and px_per_bar set;
+//   the strip `sp` sampled for it; `fo` with the signature, the fixed level
+//   step (`contrast`) and fit_shape set; `contrast_sigma`, the standard
+//   error of that level step; `warm_lsf`, the (nu0, beta) of the previous
+//   good fit in the same direction (0, 0 = none), updated on success.
+// - Out: r.outline_px / r.outline_valid from the strip; r.status by the
+//   first test that applies, in this order:
+//     out_of_view           the strip is not fully in the image;
+//     below_sampling_limit  px_per_bar < options.min_px_per_bar, or <= 1;
+//     clipped               more than 2 % of the strip's pixels clipped;
+//     fit_failed            the solver failed, or m / m_sigma not finite;
+//     aliased               px_per_bar < 3 and reduced chi^2 > aliasing_chi2
+//                           and a residual > half the bars' own modulation,
+//                           unless `model_mismatch` (the reference patch
+//                           already shows a global mismatch, such as a wrong
+//                           pixel encoding: that, not aliasing, explains it);
+//     low_signal            m_sigma > options.max_m_sigma;
+//     ok                    m and m_sigma (>= 1e-6) are set; r.note says so
+//                           when the reduced chi^2 exceeds poor_fit_chi2.
+//   r.beta and r.chi2_reduced are set whenever the fit was usable; m and
+//   m_sigma stay 0 unless the status is ok. r.resolved is not touched
+//   (decide_limits sets it).
+// - m = T(f) of the fitted line-spread function; m_sigma combines the fit's
+//   standard error with the level step's (dm/dc ~ -m/c).
+// - `prepare`, when given, transforms the profile before the final fit with
+//   the same fit options (chart mode centres the ideal pattern on the data
+//   there); its time counts as fitting time.
+// - Returns the seconds spent fitting (0 when no fit ran). Never throws for
+//   a bad profile: every failure is a status.
+
+#include <functional>
+#include <utility>
+
+#include "tactres/measure/measure.h"
+
+namespace tactres {
+
+using ProfilePrepare = std::function<ProfileData(const ProfileData&, const ProfileFitOptions&)>;
+
+double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
+                     const MeasureOptions& options, std::pair<double, double>& warm_lsf,
+                     const ProfilePrepare& prepare = {}, bool model_mismatch = false);
+
+// The limits per orientation under `criterion`, from M.elements (a status
+// other than ok counts as unresolved), into M.horizontal / M.vertical, and
+// each element's `resolved`. With `skip_out_of_view`, elements whose status
+// is out_of_view take no part in the limits (chart mode: a photograph
+// frames some groups and cuts others); otherwise they count as unresolved
+// (layout mode: the whole target must be framed).
+void decide_limits(Measurement& M, const Criterion& criterion, bool skip_out_of_view);
+
+}  // namespace tactres

@@ -1,0 +1,43 @@
+#pragma once
+// Measurement outputs: JSON ("tactres.measurement/1"), CSV (one row per
+// element and orientation), an overlay PNG, and JUnit XML for CI. All are
+// written atomically. Absent values are JSON null / empty CSV cells, never
+// NaN or inf.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+#include <opencv2/core/mat.hpp>
+
+#include "tactres/camera/image_io.h"
+#include "tactres/measure/measure.h"
+
+namespace tactres {
+
+inline constexpr const char* kMeasurementSchema = "tactres.measurement/1";
+
+struct MeasurementContext {
+  std::string image;            // the capture's path as given
+  std::string design;           // label, e.g. "T1C1"
+  std::string layout;           // the layout file
+  std::string tactres_version;
+  const LoadedImage* loaded = nullptr;
+  const MeasureOptions* options = nullptr;
+  double decode_seconds = 0;
+};
+
+nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContext& ctx);
+
+// CSV columns (stable, documented in docs/FORMATS.md):
+// image,design,group,element,orientation,lp_per_mm,px_per_bar,m,m_sigma,status,resolved
+std::string measurement_csv_header();
+std::string measurement_csv_rows(const Measurement& m, const MeasurementContext& ctx);
+
+// The capture in grey with each element's strip outlined, coloured by
+// status (resolved green, unresolved orange, other statuses red/grey), and
+// the fiducials marked.
+cv::Mat overlay_image(const cv::Mat& luminance, const Measurement& m);
+
+}  // namespace tactres

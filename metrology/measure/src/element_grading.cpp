@@ -1,0 +1,107 @@
+#include "tactres/measure/element_grading.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <tuple>
+
+#include <fmt/format.h>
+
+namespace tactres {
+
+namespace {
+// Relative standard uncertainty of ln m from the shading model itself
+// (docs/CONVENTIONS.md, "Criterion and limits").
+constexpr double kShadingModelLogSigma = 0.012;
+// Aliasing needs a misfit at least this large against the RMS of the fitted
+// signature: ~1.1 RMS is half the peak-to-peak of the bars' fundamental.
+constexpr double kAliasingMisfitShare = 1.1;
+}  // namespace
+
+double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
+                     const MeasureOptions& options, std::pair<double, double>& warm_lsf,
+                     const ProfilePrepare& prepare, bool model_mismatch) {
+  r.outline_px = sp.outline_px;
+  r.outline_valid = sp.in_view;
+  if (!sp.in_view) {
+    r.status = ElementStatus::out_of_view;
+    return 0;
+  }
+  if (r.px_per_bar < options.min_px_per_bar || r.px_per_bar <= 1.0) {
+    // At or beyond Nyquist (<= 1 px per bar) the bars are never resolved,
+    // whatever --min-px-per-bar allows: binning by sub-pixel phase can
+    // still recover the pre-sampling MTF there, but the image shows an
+    // alias, not the bars (docs/CONVENTIONS.md, "Element statuses").
+    r.status = ElementStatus::below_sampling_limit;
+    return 0;
+  }
+  if (sp.pixels_clipped > sp.pixels_used / 50) {
+    r.status = ElementStatus::clipped;
+    return 0;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  std::tie(fo.start_nu0_per_mm, fo.start_beta) = warm_lsf;
+  const ProfileFit fit = prepare ? fit_profile(prepare(sp.data, fo), fo) : fit_profile(sp.data, fo);
+  if (fit.usable) warm_lsf = {fit.nu0_per_mm, fit.beta};
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!fit.usable) {
+    r.status = ElementStatus::fit_failed;
+    return seconds;
+  }
+  const double m = fit.transfer(r.lp_per_mm);
+  // The level step's error scales the whole signature: m moves with it to
+  // first order (dm/dc ~ -m/c).
+  double m_sigma = std::hypot(fit.transfer_sigma(r.lp_per_mm), m * contrast_sigma / std::abs(fo.contrast));
+  // The shading (relief) model is biased: on independent relief captures
+  // (tests/reference, any light direction, noise-free) it reads
+  // ln m about 1.2 % of ln m too low, so the interpolated limit ~0.6 % low,
+  // several times its fit-only sigma. That known model uncertainty (a GUM
+  // type-B term) enters m_sigma, so the stated intervals cover the truth.
+  if (fo.signature == Signature::shading && m > 0)
+    m_sigma = std::hypot(m_sigma, kShadingModelLogSigma * m * std::abs(std::log(m)));
+  r.beta = fit.beta;
+  r.chi2_reduced = fit.chi2_reduced;
+  if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
+    r.status = ElementStatus::fit_failed;
+  } else if (!model_mismatch && fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0 &&
+             fit.residual_rms > kAliasingMisfitShare * fit.signal_rms * std::max(1.0, 0.05 / std::max(m, 1e-9))) {
+    // The bars are not where the geometry puts them at this sampling: the
+    // image shows another period or bar count. Both tests must agree: the
+    // misfit exceeds the noise, and it is comparable to the bars' own
+    // fitted signal (as if m were at least 0.05), for both signatures alike
+    // (a relief's slope signal is not the level step times m). A
+    // noise-free capture's small model error passes the first test alone.
+    r.status = ElementStatus::aliased;
+    r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
+                         r.px_per_bar, fit.chi2_reduced);
+  } else if (m_sigma > options.max_m_sigma) {
+    r.status = ElementStatus::low_signal;
+    r.note = fmt::format("m_sigma {:.3g} > {:.3g}: the fit cannot pin m down", m_sigma, options.max_m_sigma);
+  } else {
+    r.status = ElementStatus::ok;
+    r.m = m;
+    r.m_sigma = std::max(m_sigma, 1e-6);
+    // The covariance is already scaled by the reduced chi^2 (profile_fit.h),
+    // so m_sigma carries the misfit; a person still needs to know.
+    if (fit.chi2_reduced > options.poor_fit_chi2)
+      r.note = fmt::format("poor fit (reduced chi^2 {:.3g}): the profile model does not describe these bars well; "
+                           "m_sigma is widened by sqrt(chi^2){}",
+                           fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
+  }
+  return seconds;
+}
+
+void decide_limits(Measurement& M, const Criterion& criterion, bool skip_out_of_view) {
+  std::vector<OrientedPoint> pts;
+  for (const ElementResult& r : M.elements)
+    if (!skip_out_of_view || r.status != ElementStatus::out_of_view)
+      pts.push_back({r.orientation, {r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok}});
+  const Limits limits = find_limits(pts, criterion);
+  M.horizontal = limits.horizontal;
+  M.vertical = limits.vertical;
+  for (ElementResult& r : M.elements)
+    r.resolved = r.status == ElementStatus::ok &&
+                 is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
+}
+
+}  // namespace tactres

@@ -1,0 +1,163 @@
+#include "tactres/measure/measurement_io.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "tactres/util/csv.h"
+
+namespace tactres {
+namespace {
+
+// JSON numbers must be finite: anything else becomes null.
+nlohmann::json finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+}  // namespace
+
+nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContext& ctx) {
+  nlohmann::json j;
+  j["schema"] = kMeasurementSchema;
+  j["tactres_version"] = ctx.tactres_version;
+  j["image"] = ctx.image;
+  j["design"] = ctx.design;
+  j["layout"] = ctx.layout;
+  j["usable"] = m.usable;
+  j["problem"] = m.problem.empty() ? nlohmann::json() : nlohmann::json(m.problem);
+  if (ctx.options) {
+    j["criterion"] = {{"threshold", ctx.options->criterion.threshold},
+                      {"significance_z", ctx.options->criterion.significance_z}};
+    j["preset"] = to_string(ctx.options->preset);
+  }
+  if (ctx.loaded) {
+    // The measurement's own decision wins: a guessed curve may have been
+    // replaced by one the reference patch fits far better.
+    const TransferDecision& transfer = m.transfer.reason.empty() ? ctx.loaded->transfer : m.transfer;
+    j["input"] = {{"width", ctx.loaded->width},
+                  {"height", ctx.loaded->height},
+                  {"channels", ctx.loaded->channels},
+                  {"pixel_format", ctx.loaded->pixel_format},
+                  {"bits_per_sample", ctx.loaded->bits_per_sample},
+                  {"transfer", transfer.curve.name()},
+                  {"transfer_reason", transfer.reason},
+                  {"non_finite_pixels", ctx.loaded->non_finite_pixels}};
+  }
+  if (m.transfer_check.checked)
+    j["transfer_check"] = {{"applied", m.transfer_check.applied},
+                           {"best", m.transfer_check.best},
+                           {"chi2_applied", finite(m.transfer_check.chi2_applied)},
+                           {"chi2_best", finite(m.transfer_check.chi2_best)},
+                           {"mismatch", m.transfer_check.mismatch},
+                           {"switched", m.transfer_check.switch_to.has_value()}};
+  j["warnings"] = m.warnings;
+  j["camera"] = {{"model", m.camera_source}, {"distortion_corrected", m.distortion_corrected}};
+  if (m.pose.usable) {
+    nlohmann::json rt = nlohmann::json::array();
+    for (double v : m.pose.rt_camera_from_target_mm) rt.push_back(finite(v));
+    j["pose"] = {{"rt_camera_from_target", rt},
+                 {"seen_from_behind", m.pose.seen_from_behind},
+                 {"reprojection_rms_px", finite(m.pose.rms_px)},
+                 {"fiducials_used", m.pose.observed_disc_indices.size()}};
+  } else {
+    j["pose"] = nullptr;
+  }
+  if (m.reference.usable)
+    j["reference"] = {{"signature", m.reference.signature == Signature::albedo ? "albedo" : "shading"},
+                      {"contrast_x", finite(m.reference.contrast_x)},
+                      {"contrast_x_sigma", finite(m.reference.contrast_x_sigma)},
+                      {"contrast_y", finite(m.reference.contrast_y)},
+                      {"contrast_y_sigma", finite(m.reference.contrast_y_sigma)},
+                      {"chi2_x", finite(m.reference.chi2_x)},
+                      {"chi2_y", finite(m.reference.chi2_y)}};
+  else
+    j["reference"] = nullptr;
+  j["nyquist_lp_per_mm"] = {{"horizontal_bars", finite(m.nyquist_h_lp_per_mm)},
+                            {"vertical_bars", finite(m.nyquist_v_lp_per_mm)}};
+  j["limits"] = {{"horizontal_bars", limit_to_json(m.horizontal)}, {"vertical_bars", limit_to_json(m.vertical)}};
+  nlohmann::json els = nlohmann::json::array();
+  for (const ElementResult& e : m.elements) {
+    const bool ok = e.status == ElementStatus::ok;
+    els.push_back({{"group", e.group},
+                   {"element", e.element},
+                   {"orientation", to_string(e.orientation)},
+                   {"lp_per_mm", finite(e.lp_per_mm)},
+                   {"px_per_bar", finite(e.px_per_bar)},
+                   {"m", ok ? finite(e.m) : nlohmann::json()},
+                   {"m_sigma", ok ? finite(e.m_sigma) : nlohmann::json()},
+                   {"psf_shape_beta", ok ? finite(e.beta) : nlohmann::json()},
+                   {"chi2_reduced", e.chi2_reduced > 0 ? finite(e.chi2_reduced) : nlohmann::json()},
+                   {"status", to_string(e.status)},
+                   {"resolved", e.resolved},
+                   {"note", e.note.empty() ? nlohmann::json() : nlohmann::json(e.note)}});
+  }
+  j["elements"] = els;
+  nlohmann::json timing = nlohmann::json::object();
+  timing["decode"] = finite(ctx.decode_seconds);
+  for (const auto& [stage, s] : m.stage_seconds) timing[stage] = finite(s);
+  j["timing_seconds"] = timing;
+  return j;
+}
+
+std::string measurement_csv_header() {
+  return "image,design,group,element,orientation,lp_per_mm,px_per_bar,m,m_sigma,status,resolved\n";
+}
+
+std::string measurement_csv_rows(const Measurement& m, const MeasurementContext& ctx) {
+  auto quote = [](const std::string& s) { return csv_cell(s); };
+  auto num = [](double v, int digits) { return csv_number(v, digits); };
+  std::string out;
+  for (const ElementResult& e : m.elements) {
+    const bool ok = e.status == ElementStatus::ok;
+    out += fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", quote(ctx.image), quote(ctx.design), e.group,
+                       e.element, to_string(e.orientation), num(e.lp_per_mm, 4), num(e.px_per_bar, 3),
+                       ok ? num(e.m, 5) : "", ok ? num(e.m_sigma, 5) : "", to_string(e.status),
+                       e.resolved ? "true" : "false");
+  }
+  return out;
+}
+
+cv::Mat overlay_image(const cv::Mat& lum, const Measurement& m) {
+  // Grey background scaled by robust percentiles, NaN shown black.
+  std::vector<float> v;
+  for (int y = 0; y < lum.rows; y += 2)
+    for (int x = 0; x < lum.cols; x += 2)
+      if (std::isfinite(lum.at<float>(y, x))) v.push_back(lum.at<float>(y, x));
+  float lo = 0, hi = 1;
+  if (!v.empty()) {
+    std::sort(v.begin(), v.end());
+    lo = v[v.size() / 200];
+    hi = v[v.size() - 1 - v.size() / 200];
+    if (!(hi > lo)) hi = lo + 1;
+  }
+  cv::Mat grey(lum.size(), CV_8U);
+  for (int y = 0; y < lum.rows; ++y)
+    for (int x = 0; x < lum.cols; ++x) {
+      const float f = lum.at<float>(y, x);
+      grey.at<uchar>(y, x) = std::isfinite(f) ? cv::saturate_cast<uchar>(255.0 * (f - lo) / (hi - lo)) : 0;
+    }
+  cv::Mat out;
+  cv::cvtColor(grey, out, cv::COLOR_GRAY2BGR);
+  const int shift = 4;  // sub-pixel drawing
+  auto P = [&](Vec2 p) { return cv::Point(int(std::lround(p.x * 16)), int(std::lround(p.y * 16))); };
+  for (const ElementResult& e : m.elements) {
+    if (!e.outline_valid) continue;
+    cv::Scalar colour;  // BGR
+    if (e.status == ElementStatus::ok) colour = e.resolved ? cv::Scalar(60, 200, 60) : cv::Scalar(0, 150, 255);
+    else if (e.status == ElementStatus::below_sampling_limit) colour = cv::Scalar(150, 150, 150);
+    else colour = cv::Scalar(40, 40, 230);
+    std::vector<cv::Point> poly;
+    for (Vec2 p : e.outline_px) poly.push_back(P(p));
+    cv::polylines(out, poly, true, colour, 1, cv::LINE_AA, shift);
+  }
+  for (const FiducialDetection& f : m.fiducials.discs) {
+    cv::circle(out, P(f.centroid_px), 5 * 16, cv::Scalar(255, 120, 0), 1, cv::LINE_AA, shift);
+    cv::putText(out, f.id, cv::Point(int(f.centroid_px.x) + 8, int(f.centroid_px.y) - 8), cv::FONT_HERSHEY_SIMPLEX,
+                0.4, cv::Scalar(255, 120, 0), 1, cv::LINE_AA);
+  }
+  return out;
+}
+
+}  // namespace tactres

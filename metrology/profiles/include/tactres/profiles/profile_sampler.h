@@ -1,0 +1,59 @@
+#pragma once
+// Profiles across the bars, sampled in target millimetres.
+//
+// A strip is a rectangle in the target plane: centre c, across-axis u
+// (x or y) and along-axis v. Every pixel whose centre maps into the strip
+// (through the pose and the lens model, never through an undistorted copy)
+// contributes its value at its own u: pixels are binned by u at a fraction
+// of a pixel, which averages along the bars and oversamples the profile the
+// way a slanted edge does. The ideal pattern S(u) of every artwork shape in
+// the strip comes from the layout, so neighbours are modelled, not ignored.
+
+#include <array>
+
+#include <opencv2/core/mat.hpp>
+
+#include "tactres/profiles/profile_fit.h"
+#include "tactres/camera/target_view.h"
+#include "tactres/targets/coverage.h"
+#include "tactres/targets/layout.h"
+
+namespace tactres {
+
+struct ProfileSamplingOptions {
+  double bin_px = 0.25;             // bin width across the bars, in pixels, [0.05, 1]
+  double along_fraction = 0.7;      // central share of the bar length used, (0, 1]
+  double margin_bar_widths = 1.5;   // fit window beyond the outer bars, [0.5, 5]
+  void validate() const;            // throws std::invalid_argument
+};
+
+struct Strip {
+  Vec2 center_mm;
+  bool across_x = true;       // u along target x (vertical bars) or y (horizontal bars)
+  double half_u_mm = 0;       // fit window half width
+  double half_v_mm = 0;       // along-bar half length
+  double extend_u_mm = 0;     // extra ideal pattern beyond the window
+};
+
+struct SampledProfile {
+  ProfileData data;
+  bool in_view = false;
+  double px_per_mm_across = 0;      // image scale across the bars at the centre
+  int pixels_used = 0;
+  int pixels_clipped = 0;           // at or beyond the clip level
+  int pixels_masked = 0;            // non-finite (masked) pixels in the strip
+  std::array<Vec2, 4> outline_px{}; // strip corners in the image, for overlays
+  double map_error_px = 0;          // residual of the local pixel -> target map
+  double noise_sd = 0;              // per-pixel noise estimated from flat bins
+};
+
+// `clip_level` <= 0 disables clipping detection (float images).
+SampledProfile sample_strip(const cv::Mat& luminance, const TargetView& view,
+                            const TargetLayout& layout, const ArtworkIndex& artwork, const Strip& strip,
+                            const ProfileSamplingOptions& options, double clip_level);
+
+// The strip of an element (bars across u) and of the reference patch.
+Strip element_strip(const ElementLayout& e, const ProfileSamplingOptions& options);
+Strip patch_strip(const TargetLayout& layout, bool across_x);
+
+}  // namespace tactres

@@ -1,0 +1,163 @@
+#include <cmath>
+#include <numbers>
+#include <functional>
+#include <random>
+
+#include <doctest/doctest.h>
+
+#include "tactres/profiles/profile_fit.h"
+
+using namespace tactres;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+double phi(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+
+struct Bars {
+  double w;  // bar width, mm
+  bool inside(double u) const {
+    for (int k = -1; k <= 1; ++k)
+      if (std::abs(u - 2 * k * w) <= 0.5 * w) return true;
+    return false;
+  }
+  // Gaussian-blurred coverage, exact.
+  double blurred(double u, double s) const {
+    double v = 0;
+    for (int k = -1; k <= 1; ++k) {
+      const double c = 2 * k * w;
+      v += phi((c + 0.5 * w - u) / s) - phi((c - 0.5 * w - u) / s);
+    }
+    return v;
+  }
+  double blurred_slope(double u, double s) const {  // d/du of blurred()
+    double v = 0;
+    for (int k = -1; k <= 1; ++k) {
+      const double c = 2 * k * w;
+      auto g = [&](double z) { return std::exp(-0.5 * z * z) / std::sqrt(2 * kPi); };
+      v += (-g((c + 0.5 * w - u) / s) + g((c - 0.5 * w - u) / s)) / s;
+    }
+    return v;
+  }
+};
+
+// Bins of width `bin` over [-half, half]; the fit uses the central +-fit_half.
+ProfileData make_profile(const Bars& bars, double bin, double half, double fit_half,
+                         const std::function<double(double)>& truth, double noise_sd,
+                         std::mt19937_64* rng) {
+  ProfileData d;
+  const int n = static_cast<int>(std::round(2 * half / bin));
+  d.u0_mm = -0.5 * n * bin;
+  d.bin_mm = bin;
+  d.bin_count = n;
+  for (int k = -1; k <= 1; ++k) d.ideal.push_back({2 * k * bars.w - 0.5 * bars.w, 2 * k * bars.w + 0.5 * bars.w, 1.0});
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::uniform_real_distribution<double> jitter(-0.4, 0.4);
+  std::mt19937_64 jitter_rng(3);
+  for (int i = 0; i < n; ++i) {
+    // Point samples at a jittered position inside the bin, as pixel centres fall.
+    const double u = d.u0_mm + (i + 0.5 + jitter(jitter_rng)) * bin;
+    d.value.push_back(truth(u) + (rng ? noise_sd * noise(*rng) : 0.0));
+    d.u_mean_mm.push_back(u);
+    d.sigma.push_back(noise_sd > 0 ? noise_sd : 1e-4);
+    d.count.push_back(4);
+  }
+  d.fit_begin = static_cast<int>(std::round((half - fit_half) / bin));
+  d.fit_end = n - d.fit_begin;
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("albedo profile: m equals the Gaussian MTF at the bar frequency") {
+  const Bars bars{0.07};  // 7.14 lp/mm
+  const double f = 1 / (2 * bars.w);
+  for (double sigma_w : {0.2, 0.4, 0.6, 0.7, 0.8}) {
+    const double s = sigma_w * bars.w;
+    const double c = -0.8;
+    auto truth = [&](double u) { return 200.0 * (1 + c * bars.blurred(u, s)); };
+    const ProfileData d = make_profile(bars, bars.w / 12, 8 * bars.w, 4 * bars.w, truth, 0, nullptr);
+    ProfileFitOptions o;
+    o.contrast = c;
+    const ProfileFit fit = fit_profile(d, o);
+    REQUIRE(fit.usable);
+    const double m_true = std::exp(-2 * kPi * kPi * s * s * f * f);
+    CAPTURE(sigma_w);
+    CHECK(std::abs(fit.transfer(f) - m_true) < 2e-3);
+    CHECK(fit.beta == doctest::Approx(2.0).epsilon(0.05));
+  }
+}
+
+TEST_CASE("reference patch: the contrast is fitted") {
+  const Bars wide{1.0};  // use one wide bar as a patch stand-in
+  const double s = 0.05;
+  auto truth = [&](double u) {
+    return 100.0 * (1 - 0.7 * (phi((0.5 - u) / s) - phi((-0.5 - u) / s)));
+  };
+  ProfileData d = make_profile(wide, 0.01, 1.2, 1.0, truth, 0, nullptr);
+  d.ideal = {{-0.5, 0.5, 1.0}};  // a single patch
+  ProfileFitOptions o;
+  o.fit_contrast = true;
+  const ProfileFit fit = fit_profile(d, o);
+  REQUIRE(fit.usable);
+  CHECK(fit.contrast == doctest::Approx(-0.7).epsilon(2e-3));
+  CHECK(fit.b0 == doctest::Approx(100.0).epsilon(1e-3));
+}
+
+TEST_CASE("shading profile: the edge-like signature gives the same transfer") {
+  const Bars bars{0.05};
+  const double f = 1 / (2 * bars.w);
+  const double s = 0.6 * bars.w;
+  const double c = 0.004;  // relative intensity per unit slope x relief
+  auto truth = [&](double u) { return 150.0 * (1 + c * bars.blurred_slope(u, s)); };
+  const ProfileData d = make_profile(bars, bars.w / 12, 8 * bars.w, 4 * bars.w, truth, 0, nullptr);
+  ProfileFitOptions o;
+  o.signature = Signature::shading;
+  o.contrast = c;
+  const ProfileFit fit = fit_profile(d, o);
+  REQUIRE(fit.usable);
+  const double m_true = std::exp(-2 * kPi * kPi * s * s * f * f);
+  CHECK(std::abs(fit.transfer(f) - m_true) < 3e-3);
+}
+
+TEST_CASE("standard errors are calibrated on noisy profiles") {
+  const Bars bars{0.07};
+  const double f = 1 / (2 * bars.w);
+  const double s = 0.6 * bars.w;
+  const double m_true = std::exp(-2 * kPi * kPi * s * s * f * f);
+  auto truth = [&](double u) { return 100.0 * (1 - 0.8 * bars.blurred(u, s)); };
+  std::mt19937_64 rng(7);
+  double sum_z2 = 0;
+  int n = 0, covered = 0;
+  for (int rep = 0; rep < 60; ++rep) {
+    const ProfileData d = make_profile(bars, bars.w / 4, 8 * bars.w, 4 * bars.w, truth, 1.0, &rng);
+    ProfileFitOptions o;
+    o.contrast = -0.8;
+    const ProfileFit fit = fit_profile(d, o);
+    REQUIRE(fit.usable);
+    const double z = (fit.transfer(f) - m_true) / fit.transfer_sigma(f);
+    sum_z2 += z * z;
+    covered += std::abs(z) <= 2 ? 1 : 0;
+    ++n;
+  }
+  const double rms_z = std::sqrt(sum_z2 / n);
+  CHECK(rms_z > 0.6);
+  CHECK(rms_z < 1.5);
+  CHECK(covered >= 50);  // ~95% expected of 60
+}
+
+TEST_CASE("no contrast is a graded failure, not a NaN") {
+  const Bars bars{0.07};
+  auto flat = [](double) { return 50.0; };
+  const ProfileData d = make_profile(bars, bars.w / 8, 8 * bars.w, 4 * bars.w, flat, 0, nullptr);
+  ProfileFitOptions o;
+  o.fit_contrast = true;
+  const ProfileFit fit = fit_profile(d, o);
+  if (fit.usable) {
+    CHECK(std::isfinite(fit.transfer(0.5 / bars.w)));
+    CHECK(std::abs(fit.contrast) < 1e-3);
+  } else {
+    CHECK_FALSE(fit.failure.empty());
+  }
+}

@@ -1,0 +1,308 @@
+#include "tactres/profiles/profile_sampler.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <opencv2/core.hpp>
+
+namespace tactres {
+
+void ProfileSamplingOptions::validate() const {
+  if (!(bin_px >= 0.05 && bin_px <= 1))
+    throw std::invalid_argument("profile bin width must be in [0.05, 1] px");
+  if (!(along_fraction > 0 && along_fraction <= 1))
+    throw std::invalid_argument("along-bar fraction must be in (0, 1]");
+  if (!(margin_bar_widths >= 0.5 && margin_bar_widths <= 5))
+    throw std::invalid_argument("profile margin must be in [0.5, 5] bar widths");
+}
+
+Strip element_strip(const ElementLayout& e, const ProfileSamplingOptions& o) {
+  const double w = e.bar_width_mm;
+  Strip s;
+  s.center_mm = e.extent_mm().center_mm();
+  s.across_x = e.orientation == BarOrientation::vertical_bars;
+  s.half_u_mm = 2.5 * w + o.margin_bar_widths * w;
+  s.half_v_mm = 0.5 * o.along_fraction * 5 * w;
+  s.extend_u_mm = 4 * w;
+  return s;
+}
+
+Strip patch_strip(const TargetLayout& layout, bool across_x) {
+  const RectMm& p = layout.reference_patch_mm;
+  const double size_u = across_x ? p.width_mm() : p.height_mm();
+  const double size_v = across_x ? p.height_mm() : p.width_mm();
+  Strip s;
+  s.center_mm = p.center_mm();
+  s.across_x = across_x;
+  s.half_u_mm = 0.5 * size_u + 0.15 * size_u;
+  s.half_v_mm = 0.35 * size_v;
+  s.extend_u_mm = 0.25 * size_u;
+  return s;
+}
+
+namespace {
+
+Vec2 to_target(const Strip& s, double u, double v) {
+  return s.across_x ? Vec2{s.center_mm.x + u, s.center_mm.y + v} : Vec2{s.center_mm.x + v, s.center_mm.y + u};
+}
+
+// Ideal strip profile S(u) from every shape overlapping the extended strip.
+std::vector<IdealBox> ideal_boxes(const TargetLayout& layout, const ArtworkIndex& index, const Strip& s,
+                                  double slice_mm) {
+  const double U = s.half_u_mm + s.extend_u_mm, V = s.half_v_mm;
+  const Vec2 a = to_target(s, -U, -V), b = to_target(s, U, V);
+  const RectMm strip{std::min(a.x, b.x), std::min(a.y, b.y), std::max(a.x, b.x), std::max(a.y, b.y)};
+  std::vector<int> hits;
+  index.query(strip, hits);
+  std::vector<IdealBox> boxes;
+  for (int i : hits) {
+    const ArtworkShape& shape = layout.artwork[i];
+    const RectMm bounds = shape.bounds_mm();
+    const double lo = s.across_x ? bounds.x0 - s.center_mm.x : bounds.y0 - s.center_mm.y;
+    const double hi = s.across_x ? bounds.x1 - s.center_mm.x : bounds.y1 - s.center_mm.y;
+    const double u0 = std::max(lo, -U), u1 = std::min(hi, U);
+    if (!(u1 > u0)) continue;
+    // Rectangles are one exact box; other shapes are sliced finely in u and
+    // each slice's strip coverage is computed exactly.
+    const int n = shape.kind == ArtworkShape::Kind::rect ? 1 : std::max(1, int(std::ceil((u1 - u0) / slice_mm)));
+    for (int k = 0; k < n; ++k) {
+      const double s0 = u0 + (u1 - u0) * k / n, s1 = u0 + (u1 - u0) * (k + 1) / n;
+      const Vec2 p = to_target(s, s0, -V), q = to_target(s, s1, V);
+      const RectMm slice{std::min(p.x, q.x), std::min(p.y, q.y), std::max(p.x, q.x), std::max(p.y, q.y)};
+      const double level = intersection_area_mm2(shape, slice) / slice.area_mm2();
+      if (level > 0) boxes.push_back({s0, s1, level});
+    }
+  }
+  return boxes;
+}
+
+}  // namespace
+
+SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const TargetLayout& layout,
+                            const ArtworkIndex& index, const Strip& s, const ProfileSamplingOptions& o,
+                            double clip_level) {
+  SampledProfile out;
+  const int W = lum.cols, H = lum.rows;
+  const double U = s.half_u_mm, V = s.half_v_mm;
+
+  // Project a 7 x 7 lattice over the strip: outline, scale, and the data for
+  // a local quadratic pixel -> (u, v) map.
+  const int n = 7;
+  std::vector<Vec2> px, uv;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const double u = -U + 2 * U * i / (n - 1), v = -V + 2 * V * j / (n - 1);
+      const auto q = view.project(to_target(s, u, v));
+      if (!q || q->x < 0 || q->y < 0 || q->x > W - 1 || q->y > H - 1) return out;  // out of view
+      px.push_back(*q);
+      uv.push_back({u, v});
+    }
+  out.in_view = true;
+  out.outline_px = {px[0], px[n - 1], px[n * n - 1], px[n * (n - 1)]};
+  out.px_per_mm_across = view.px_per_mm(s.center_mm, s.across_x);
+  if (!(out.px_per_mm_across > 0)) {
+    out.in_view = false;
+    return out;
+  }
+
+  // Quadratic map in centred pixel coordinates, fitted by least squares.
+  const Vec2 pc = px[n * n / 2];
+  cv::Mat A(n * n, 6, CV_64F), bu(n * n, 1, CV_64F), bv(n * n, 1, CV_64F);
+  for (int k = 0; k < n * n; ++k) {
+    const double x = px[k].x - pc.x, y = px[k].y - pc.y;
+    const double row[6] = {1, x, y, x * x, x * y, y * y};
+    for (int c = 0; c < 6; ++c) A.at<double>(k, c) = row[c];
+    bu.at<double>(k) = uv[k].x;
+    bv.at<double>(k) = uv[k].y;
+  }
+  cv::Mat cu, cv_;
+  cv::solve(A, bu, cu, cv::DECOMP_QR);
+  cv::solve(A, bv, cv_, cv::DECOMP_QR);
+  auto map_uv = [&](double X, double Y) {
+    const double x = X - pc.x, y = Y - pc.y;
+    const double r[6] = {1, x, y, x * x, x * y, y * y};
+    double u = 0, v = 0;
+    for (int c = 0; c < 6; ++c) {
+      u += cu.at<double>(c) * r[c];
+      v += cv_.at<double>(c) * r[c];
+    }
+    return Vec2{u, v};
+  };
+  for (int k = 0; k < n * n; ++k)
+    out.map_error_px = std::max(out.map_error_px, norm(map_uv(px[k].x, px[k].y) - uv[k]) * out.px_per_mm_across);
+
+  // Bins over the extended range.
+  ProfileData& d = out.data;
+  d.bin_mm = o.bin_px / out.px_per_mm_across;
+  const double Uext = U + s.extend_u_mm;
+  d.bin_count = std::max(8, static_cast<int>(std::ceil(2 * Uext / d.bin_mm)));
+  d.u0_mm = -0.5 * d.bin_count * d.bin_mm;
+  d.fit_begin = std::max(0, static_cast<int>(std::floor((-U - d.u0_mm) / d.bin_mm)));
+  d.fit_end = std::min(d.bin_count, static_cast<int>(std::ceil((U - d.u0_mm) / d.bin_mm)));
+  std::vector<double> sum(d.bin_count, 0), sum2(d.bin_count, 0), sum_u(d.bin_count, 0), sum_uu(d.bin_count, 0);
+  // Along-bar moments: the light varies along the bars too (vignetting,
+  // illumination), which is not noise; the noise estimate removes it.
+  std::vector<double> sum_v(d.bin_count, 0), sum_vv(d.bin_count, 0), sum_xv(d.bin_count, 0);
+  struct Sample {
+    double u_mm, v_mm, value;
+    int bin;
+  };
+  std::vector<Sample> samples;  // kept for the along-bar light correction below
+  d.count.assign(d.bin_count, 0);
+
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (const Vec2& q : px) {
+    x0 = std::min(x0, q.x);
+    y0 = std::min(y0, q.y);
+    x1 = std::max(x1, q.x);
+    y1 = std::max(y1, q.y);
+  }
+  const int ix0 = std::max(0, int(std::floor(x0))), ix1 = std::min(W - 1, int(std::ceil(x1)));
+  const int iy0 = std::max(0, int(std::floor(y0))), iy1 = std::min(H - 1, int(std::ceil(y1)));
+  for (int y = iy0; y <= iy1; ++y) {
+    const float* row = lum.ptr<float>(y);
+    for (int x = ix0; x <= ix1; ++x) {
+      const Vec2 p = map_uv(x, y);
+      if (std::abs(p.x) > U || std::abs(p.y) > V) continue;
+      const float value = row[x];
+      if (!std::isfinite(value)) {
+        ++out.pixels_masked;
+        continue;
+      }
+      if (clip_level > 0 && (value >= clip_level * 0.9999f || value <= 0.f)) ++out.pixels_clipped;
+      const int b = static_cast<int>(std::floor((p.x - d.u0_mm) / d.bin_mm));
+      if (b < 0 || b >= d.bin_count) continue;
+      sum[b] += value;
+      sum2[b] += double(value) * value;
+      sum_u[b] += p.x;
+      sum_uu[b] += p.x * p.x;
+      sum_v[b] += p.y;
+      sum_vv[b] += p.y * p.y;
+      sum_xv[b] += value * p.y;
+      samples.push_back({p.x, p.y, value, b});
+      ++d.count[b];
+      ++out.pixels_used;
+    }
+  }
+
+  // Bin means. The noise comes from the within-bin spread pooled over the
+  // flattest half of the bins: at an edge, a bin's quarter-pixel width spans
+  // real signal change that is not noise. It is floored at 0.2% of the level
+  // so that noise-free renders still weigh the bins sensibly.
+  d.value.assign(d.bin_count, std::numeric_limits<double>::quiet_NaN());
+  d.u_mean_mm.resize(d.bin_count);
+  d.sigma.assign(d.bin_count, 1.0);
+  double level = 0;
+  int level_n = 0;
+  for (int b = 0; b < d.bin_count; ++b) {
+    d.u_mean_mm[b] = d.bin_center_mm(b);
+    if (d.count[b] == 0) continue;
+    d.value[b] = sum[b] / d.count[b];
+    d.u_mean_mm[b] = sum_u[b] / d.count[b];
+    level += std::abs(d.value[b]);
+    ++level_n;
+  }
+  double spread = 0;
+  for (int b = 0; b < d.bin_count; ++b)
+    if (d.count[b] > 0) spread += std::max(0.0, sum_uu[b] - sum_u[b] * sum_u[b] / d.count[b]);
+  d.bin_spread_var_mm2 = out.pixels_used > 0 ? spread / out.pixels_used : 0.0;
+  std::vector<int> filled;  // bins holding samples (aligned pixels leave gaps)
+  for (int b = 0; b < d.bin_count; ++b)
+    if (d.count[b] > 0) filled.push_back(b);
+  auto flattest_first = [&] {
+    std::vector<std::pair<double, int>> flatness;  // |change across neighbours|, bin
+    for (size_t k = 1; k + 1 < filled.size(); ++k)
+      if (d.count[filled[k]] >= 3)
+        flatness.push_back({std::abs(d.value[filled[k + 1]] - d.value[filled[k - 1]]), filled[k]});
+    std::sort(flatness.begin(), flatness.end());
+    return flatness;
+  };
+  std::vector<std::pair<double, int>> flatness = flattest_first();
+
+  // Light that varies along the bars (a hot spot, vignetting) is a relative
+  // gain 1 + g v over the strip. A bin's pixels need not be centred on
+  // v = 0: at a small roll the pixel rows fall into neighbouring bins in
+  // different bands of v, and their means would alternate by the gain
+  // difference, which no profile model describes. g is regressed from the
+  // pixels' departures from the profile P(u), interpolated between bin
+  // means: at a roll, u and v correlate within a bin, so a per-bin slope in
+  // u could not be told from the gain. Every bin mean is then referred to
+  // v = 0.
+  {
+    std::vector<double> bin_v(d.bin_count, 0);
+    for (int b : filled) bin_v[b] = sum_v[b] / d.count[b];
+    auto profile_at = [&](double u_mm) {
+      const auto hi = std::lower_bound(filled.begin(), filled.end(), u_mm,
+                                       [&](int b, double u) { return d.u_mean_mm[b] < u; });
+      if (hi == filled.begin()) return d.value[filled.front()];
+      if (hi == filled.end()) return d.value[filled.back()];
+      const int b1 = *hi, b0 = *(hi - 1);
+      const double t = (u_mm - d.u_mean_mm[b0]) / (d.u_mean_mm[b1] - d.u_mean_mm[b0]);
+      return d.value[b0] + t * (d.value[b1] - d.value[b0]);
+    };
+    // Per pixel: the regressor P dv and the departure value - P.
+    std::vector<std::pair<double, double>> xy(samples.size());
+    double num = 0, den = 0;
+    for (size_t k = 0; k < samples.size(); ++k) {
+      const Sample& q = samples[k];
+      const double P = profile_at(q.u_mm);
+      xy[k] = {P * (q.v_mm - bin_v[q.bin]), q.value - P};
+      num += xy[k].first * xy[k].second;
+      den += xy[k].first * xy[k].first;
+    }
+    const double g_per_mm = den > 0 ? num / den : 0.0;
+    // Applied only when it matters and is real: interpolating P(u) between
+    // the bins of a fine element leaves errors that a spurious g would
+    // otherwise absorb.
+    double rss = 0;
+    for (const auto& [x, y] : xy) rss += (y - g_per_mm * x) * (y - g_per_mm * x);
+    const double g_sigma = den > 0 && samples.size() > 2 ? std::sqrt(rss / (samples.size() - 2) / den) : 0.0;
+    const bool significant = std::abs(g_per_mm) > 4 * g_sigma && std::abs(g_per_mm) * V > 2e-3;
+    if (significant && std::abs(g_per_mm) * V < 0.5) {
+      for (int b : filled) d.value[b] /= 1.0 + g_per_mm * sum_v[b] / d.count[b];
+      flatness = flattest_first();
+    }
+  }
+
+  // Noise model var(level) = a + b * level (read noise plus shot noise, the
+  // photon-transfer relation of EMVA 1288), fitted to the within-bin
+  // variances of the flattest half of the bins. Dark bars are much quieter
+  // than bright ground under shot noise; one pooled variance would overstate
+  // the noise of the bars and understate it on the ground.
+  double s_w = 0, s_x = 0, s_y = 0, s_xx = 0, s_xy = 0;
+  for (size_t k = 0; k < (flatness.size() + 1) / 2; ++k) {
+    const int b = flatness[k].second;
+    const double n = d.count[b];
+    // Residual sum of squares after a straight line in v.
+    const double sxx = sum2[b] - sum[b] * sum[b] / n;
+    const double svv = sum_vv[b] - sum_v[b] * sum_v[b] / n;
+    const double sxv = sum_xv[b] - sum[b] * sum_v[b] / n;
+    const double var = std::max(0.0, svv > 0 ? sxx - sxv * sxv / svv : sxx) / (n - 2);
+    const double w = n - 2, x = d.value[b];
+    s_w += w;
+    s_x += w * x;
+    s_y += w * var;
+    s_xx += w * x * x;
+    s_xy += w * x * var;
+  }
+  double a = s_w > 0 ? s_y / s_w : 0.0, slope = 0.0;
+  const double det = s_w * s_xx - s_x * s_x;
+  if (s_w > 0 && det > 1e-12 * s_w * s_xx) {
+    slope = std::max(0.0, (s_w * s_xy - s_x * s_y) / det);
+    a = std::max(0.0, (s_y - slope * s_x) / s_w);
+  }
+  const double floor_sd = 2e-3 * (level_n ? level / level_n : 1.0);
+  const double mean_level = s_w > 0 ? s_x / s_w : 0.0;
+  out.noise_sd = std::sqrt(std::max(0.0, a + slope * mean_level));
+  for (int b = 0; b < d.bin_count; ++b)
+    if (d.count[b] > 0) {
+      const double var = std::max(a + slope * std::max(0.0, d.value[b]), floor_sd * floor_sd);
+      d.sigma[b] = std::sqrt(var / d.count[b]);
+    }
+
+  d.ideal = ideal_boxes(layout, index, s, 0.25 * d.bin_mm);
+  return out;
+}
+
+}  // namespace tactres

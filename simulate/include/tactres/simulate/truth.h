@@ -1,0 +1,54 @@
+#pragma once
+// The true answer for a simulated capture ("tactres.truth/1").
+//
+// m(f) of the whole chain for every element. Where the chain is linear, it
+// is the product of the effects' transfer functions at the element's
+// frequency, mapped into the image through the local lens Jacobian:
+//   gel      exp(-2 pi^2 sigma_gel^2 f^2)          (contact, relief targets)
+//   optics   psf_mtf(|k_img|)                      (blur)
+//   pixel    sinc(k_img,x) sinc(k_img,y)           (the pixel's own area)
+// with k_img = J^-T k_target in cycles/px. Illumination and vignetting are
+// slow multiplicative fields and zero-mean sensor noise leaves the mean
+// unchanged, so they keep m. Full (non-linearised) Lambert shading is not
+// linear: there m is computed numerically as the sine response of the
+// shading at the relief's amplitude, relative to its small-signal response,
+// and the element says "analytic": false.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "tactres/camera/camera_model.h"
+#include "tactres/profiles/criterion.h"
+#include "tactres/simulate/scene.h"
+#include "tactres/targets/layout.h"
+
+namespace tactres {
+
+inline constexpr const char* kTruthSchema = "tactres.truth/1";
+
+struct TruthElement {
+  int group = 0, element = 1;
+  BarOrientation orientation = BarOrientation::horizontal_bars;
+  double lp_per_mm = 0;
+  double m = 0;
+  bool analytic = true;
+  double px_per_bar = 0;  // bar width in pixels across the bars
+  Vec2 center_px;
+  bool in_view = true;
+};
+
+struct Truth {
+  std::vector<TruthElement> elements;
+  Limit horizontal, vertical;
+  double nyquist_h_lp_per_mm = 0, nyquist_v_lp_per_mm = 0;  // at the target centre
+  bool seen_from_behind = false;
+};
+
+Truth compute_truth(const Scene& scene, const TargetLayout& layout, const CameraModel& camera);
+
+nlohmann::json truth_to_json(const Truth& truth, const Scene& scene, const std::string& image_name);
+
+}  // namespace tactres
