@@ -864,8 +864,6 @@ double opposite_deviation(const cv::Mat& lum, const Blob& blob, const Refined& R
   // Noise: the robust spread of neighbouring pixels' differences (the
   // crescents and the ground's gradient are smooth at this scale).
   const double sigma = 1.4826 / std::sqrt(2.0) * percentile_of(diff, 0.5);
-  if (std::getenv("TACTRES_FID_DEBUG"))
-    fprintf(stderr, "  peak %.4f sigma %.4f delta %.4f n %zu step %d\n", peak, sigma, delta, opp.size(), step);
   if (!(peak > 4 * sigma)) return 0;
   return peak / std::abs(delta);
 }
@@ -1366,9 +1364,6 @@ class RefinedCache {
       R.opposite = pol_ == kShaded || std::getenv("TACTRES_FID_OLD")  // TEMP A/B
                        ? 0
                        : opposite_deviation(lum_, det_.blobs[pol_][b], R, pol_ == kDark);
-    if (std::getenv("TACTRES_FID_DEBUG"))
-      fprintf(stderr, "opp pol %d blob (%.1f %.1f) area %.1f opp %.3f\n", pol_, R.centroid.x,
-              R.centroid.y, R.area, R.opposite);
     return R.opposite;
   }
   const cv::Mat& image() const { return lum_; }
@@ -2094,9 +2089,6 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
       best_partial = std::max(best_partial, id.partial_count);
       any_ambiguous = any_ambiguous || id.ambiguous;
       const Verdict& v = id.verdict;
-      if (std::getenv("TACTRES_FID_DEBUG"))
-        fprintf(stderr, "scale %d pol %d ok %d n %d bip %d score %.3f\n", scale, pol, v.ok, v.n,
-                v.bipolar, v.score);
       if (!v.ok) continue;
       const int n = v.n;
       // Prefer discs that are no relief's crescents (the shaded mode's are
@@ -2144,13 +2136,18 @@ FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout
       if (r_min_found / std::sqrt(options.max_area_ratio) >= r_detectable) return best;
     }
   }
+  if (best.found && !best_bipolar) return best;
   if (best.found) {
-    if (best_bipolar)
-      best.warning =
-          "the fiducial discs look like a relief's light and dark crescents (each has a strong "
-          "opposite-polarity neighbour), but were only found as filled discs: their centroids may be "
-          "off by up to a disc radius, and the pose with them; check the capture (focus, disc size)";
-    return best;
+    // Five crescents of a relief fit the pattern as filled discs, but no
+    // mode fitted the discs themselves: their centroids would be up to a
+    // radius off, and the pose with them. Refused rather than reported.
+    FiducialSearchResult r;
+    r.dark_on_light = layout_dark;
+    r.problem =
+        "the fiducial discs show as a relief's light and dark crescents, too small or blurred to fit "
+        "their rims (only the crescents themselves were found, up to a disc radius off the discs' "
+        "centres): capture the target larger or sharper";
+    return r;
   }
   best = {};
   best.dark_on_light = layout_dark;
