@@ -25,3 +25,24 @@ function(tactres_library name)
     doctest_discover_tests(tactres_${name}_tests TEST_PREFIX "${name}: " PROPERTIES LABELS "unit;${name}")
   endif()
 endfunction()
+
+# tactres_embed_assets(TARGET HEADER asset ...)
+# Web assets (CSS, JavaScript) are kept as plain files in the module's
+# assets/ folder and compiled into TARGET as a generated header HEADER
+# (cmake/embed_assets.cmake), rebuilt whenever an asset changes.
+function(tactres_embed_assets target header)
+  set(out ${CMAKE_CURRENT_BINARY_DIR}/generated/${header})
+  set(files)
+  foreach(asset ${ARGN})
+    list(APPEND files ${CMAKE_CURRENT_SOURCE_DIR}/${asset})
+  endforeach()
+  # '|' separates the files on the command line: ';' would end the command.
+  string(REPLACE ";" "|" file_args "${files}")
+  add_custom_command(OUTPUT ${out}
+    COMMAND ${CMAKE_COMMAND} -DOUT=${out} -DFILES=${file_args} -P ${PROJECT_SOURCE_DIR}/cmake/embed_assets.cmake
+    DEPENDS ${files} ${PROJECT_SOURCE_DIR}/cmake/embed_assets.cmake
+    COMMENT "Embedding ${header}"
+    VERBATIM)
+  target_sources(${target} PRIVATE ${out})
+  target_include_directories(${target} PRIVATE ${CMAKE_CURRENT_BINARY_DIR}/generated)
+endfunction()

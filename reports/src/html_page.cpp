@@ -1,5 +1,7 @@
 #include "tactres/reports/html_page.h"
 
+#include "reports_assets.h"  // generated from the assets folder at build time
+
 #include <algorithm>
 #include <cctype>
 #include <stdexcept>
@@ -15,115 +17,15 @@ namespace {
 // family: palette, type, cards, tables, notes, the error box and the print
 // layout. Chart heights are left to the pages: each sizes its own charts, on
 // screen and in print.
-constexpr const char* kBaseCss = R"CSS(
-:root { --ink: #1d2330; --muted: #5b6472; --line: #d9dde3; --bg: #f5f6f8; --card: #fff;
-        --ok: #2e7d32; --bad: #b3261e; }
-* { box-sizing: border-box; }
-html { background: var(--bg); }
-body { margin: 0 auto; max-width: 1240px; padding: 24px 28px 40px; color: var(--ink);
-       font: 14px/1.45 "DejaVu Sans", "Segoe UI", Roboto, "Helvetica Neue", Arial, sans-serif; }
-h1 { font-size: 24px; margin: 0 0 4px; letter-spacing: -0.01em; }
-h2 { font-size: 17px; margin: 0 0 10px; }
-.sub { color: var(--muted); margin: 0 0 18px; }
-section { background: var(--card); border: 1px solid var(--line); border-radius: 8px; padding: 16px 18px;
-          margin: 0 0 18px; }
-.cards { display: grid; grid-template-columns: repeat(auto-fit, minmax(220px, 1fr)); gap: 12px;
-         background: none; border: none; padding: 0; }
-.card { background: var(--card); border: 1px solid var(--line); border-radius: 8px; padding: 12px 14px; }
-.card .k { color: var(--muted); font-size: 12px; text-transform: uppercase; letter-spacing: 0.04em; }
-.card .val { font-size: 20px; font-weight: 600; margin-top: 2px; }
-.card .val small { font-size: 13px; font-weight: 400; color: var(--muted); }
-.card .detail { color: var(--muted); font-size: 12px; margin-top: 2px; }
-table { border-collapse: collapse; width: 100%; font-variant-numeric: tabular-nums; }
-th, td { padding: 5px 8px; border-bottom: 1px solid var(--line); text-align: right; white-space: nowrap; }
-th { font-size: 12px; color: var(--muted); font-weight: 600; vertical-align: bottom; }
-td.name, th.name { text-align: left; font-weight: 600; }
-tbody tr:nth-child(even) { background: #fafbfc; }
-td.problem { text-align: left; white-space: normal; color: var(--bad); }
-.note { color: var(--muted); font-size: 12.5px; margin: 8px 0 0; }
-.note li { margin: 2px 0; }
-.chart-box { position: relative; }
-#script-error { background: #fdecea; color: var(--bad); border: 1px solid #f5c2bd; padding: 10px 14px;
-                border-radius: 6px; margin: 0 0 18px; }
-footer { color: var(--muted); font-size: 12px; }
-@media print {
-  @page { size: A4 landscape; margin: 12mm; }
-  html, body { background: #fff; }
-  body { max-width: none; padding: 0; font-size: 10.5pt; }
-  section { border: none; padding: 0; }
-  canvas { max-width: 100% !important; }
-  tr { break-inside: avoid; }
-  #script-error { display: none; }
-}
-)CSS";
+constexpr const char* kBaseCss = kAsset_page_css;  // reports/assets/page.css
 
 // The page script around the page's own chart code. Chart.js's defaults
 // match the page's type; animation is off so that a chart is final when it
 // first renders, which is when the counter plugin counts it (the browser
 // tests wait for data-charts-rendered to reach data-charts-expected).
-constexpr const char* kScriptBeforeCharts = R"JS(
-(function () {
-  'use strict';
-  var body = document.body;
-  function fail(e) {
-    var msg = String((e && e.message) || e);
-    body.setAttribute('data-script-error', msg);
-    var box = document.getElementById('script-error');
-    if (box) { box.hidden = false; box.textContent = 'The charts could not be drawn: ' + msg; }
-  }
-  try {
-    if (typeof Chart === 'undefined') throw new Error('Chart.js is missing from this file');
-    var data = JSON.parse(document.getElementById('{data_id}').textContent);
-    Chart.defaults.font.family = getComputedStyle(body).fontFamily;
-    Chart.defaults.font.size = 12;
-    Chart.defaults.color = '#333';
-    Chart.defaults.animation = false;
-    Chart.defaults.maintainAspectRatio = false;
+constexpr const char* kScriptBeforeCharts = kAsset_page_before_charts_js;  // reports/assets/page_before_charts.js
 
-    var rendered = 0;
-    Chart.register({
-      id: 'renderedCounter',
-      afterRender: function (chart) {
-        if (chart.$tactresCounted || !(chart.width > 0 && chart.height > 0)) return;
-        chart.$tactresCounted = true;
-        chart.canvas.setAttribute('data-rendered-size', chart.width + 'x' + chart.height);
-        body.setAttribute('data-charts-rendered', String(++rendered));
-      }
-    });
-
-    // A Chart.js plugin that writes dataset[id][i], where there is one, in
-    // the dataset's colour at place(chart, dataset, meta, element, i): an
-    // [x, y] in pixels, or null for none.
-    function textLabels(id, font, align, baseline, place) {
-      return {
-        id: id,
-        afterDatasetsDraw: function (chart) {
-          var ctx = chart.ctx;
-          ctx.save();
-          ctx.font = font + ' ' + Chart.defaults.font.family;
-          ctx.textAlign = align;
-          ctx.textBaseline = baseline;
-          chart.data.datasets.forEach(function (ds, di) {
-            if (!ds[id] || !chart.isDatasetVisible(di)) return;
-            var meta = chart.getDatasetMeta(di);
-            meta.data.forEach(function (el, i) {
-              var at = ds[id][i] ? place(chart, ds, meta, el, i) : null;
-              if (!at) return;
-              ctx.fillStyle = ds.borderColor;
-              ctx.fillText(ds[id][i], at[0], at[1]);
-            });
-          });
-          ctx.restore();
-        }
-      };
-    }
-)JS";
-
-constexpr const char* kScriptAfterCharts = R"JS(
-  } catch (e) {
-    fail(e);
-  }
-)JS";
+constexpr const char* kScriptAfterCharts = kAsset_page_after_charts_js;  // reports/assets/page_after_charts.js
 
 std::string lower(std::string_view s) {
   std::string out(s);

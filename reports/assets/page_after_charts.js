@@ -1,0 +1,3 @@
+  } catch (e) {
+    fail(e);
+  }
