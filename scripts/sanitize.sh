@@ -19,8 +19,9 @@ t0=$(date +%s)
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTACTRES_SANITIZE=ON \
   -DCMAKE_CXX_FLAGS="-fsanitize=float-cast-overflow" \
   > "$build.configure.log" 2>&1 || { cat "$build.configure.log"; exit 1; }
-cmake --build "$build" -j "$(nproc)" --target tactres tactres_targets_tests tactres_metrology_tests \
-  tactres_reports_tests tactres_stability_tests
+cmake --build "$build" -j "$(nproc)" --target tactres tactres_util_tests tactres_targets_tests \
+  tactres_camera_tests tactres_locate_tests tactres_profiles_tests tactres_simulate_tests \
+  tactres_reports_tests tactres_bench_tests tactres_stability_tests
 t1=$(date +%s)
 
 # Any report fails its test: UBSan stops at the first finding (GCC's default
