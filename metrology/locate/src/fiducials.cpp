@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -1361,9 +1360,8 @@ class RefinedCache {
   double opposite(int b) {
     Refined& R = r_[b];
     if (R.opposite < 0)
-      R.opposite = pol_ == kShaded || std::getenv("TACTRES_FID_OLD")  // TEMP A/B
-                       ? 0
-                       : opposite_deviation(lum_, det_.blobs[pol_][b], R, pol_ == kDark);
+      R.opposite =
+          pol_ == kShaded ? 0 : opposite_deviation(lum_, det_.blobs[pol_][b], R, pol_ == kDark);
     return R.opposite;
   }
   const cv::Mat& image() const { return lum_; }

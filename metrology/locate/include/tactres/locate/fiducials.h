@@ -53,6 +53,17 @@
 // the pattern's map predicts, and under one light every disc's light
 // crescent lies on the same side.
 //
+// Crescents taken for discs: small relief discs (radius ~5 px) blurred by
+// ~3 px show each crescent as a compact blob, and the five dark (or light)
+// crescents fit the pattern as printed discs, all displaced by ~a radius.
+// Such discs betray themselves by a strong deviation of the opposite sign
+// beside each (the other crescent; nothing on a print is lighter than its
+// ground around a dark disc). When most discs of a printed-mode answer have
+// one, it does not end the search: every other mode, at both scales, may
+// replace it, and if none does (the shaded mode cannot fit rims that small)
+// the capture is refused with a problem saying so, never reported with
+// centroids a radius off; four such discs are never accepted.
+//
 // Pixel convention (mrcal's and OpenCV's): the top-left pixel's centre is
 // (0, 0).
 //
