@@ -306,7 +306,14 @@ Command measure_command() {
             app.add_option("--transfer", a->transfer, "How the file's code values map to light: auto (the file's colour tag; without one, 8-bit = "
                            "sRGB, 16-bit and float = linear), linear, srgb, or gamma:G (light = code^G, G in [0.2, 5])")
                 ->capture_default_str()
-                ->check(CLI::IsMember({"auto", "linear", "srgb"}));
+                ->check([](const std::string& text) {
+                  try {
+                    transfer_from_option(text);
+                    return std::string();
+                  } catch (const std::invalid_argument& e) {
+                    return std::string(e.what());
+                  }
+                });
             app.add_option("--non-finite", a->non_finite, "NaN/Inf pixels: mask (skip them) or reject the image")
                 ->capture_default_str()
                 ->check(CLI::IsMember({"mask", "reject"}));

@@ -107,6 +107,16 @@ TEST_CASE("encoding: untagged 16-bit linear PNG measured right by default, force
   CHECK(wrong.json["warnings"][0].get<std::string>().find("use --transfer linear") != std::string::npos);
   CHECK(wrong.out.find("warning: the profiles fit as if the file were linear-encoded") != std::string::npos);
   CHECK(count_status(wrong.json, "aliased") == 0);  // the patch shows a global mismatch, not aliasing
+
+  // A power law is accepted on the command line, and named as wrong too.
+  const CliResult gamma = measure_cli(linear_png, layout, dir.path, "--transfer gamma:2.2");
+  REQUIRE(gamma.exit_code == 0);
+  CHECK(gamma.json["input"]["transfer"] == "gamma 2.2");
+  CHECK(gamma.json["transfer_check"]["best"] == "linear");
+  // A curve tactres does not know is a usage error (exit 3) that lists the accepted ones.
+  const CliResult bogus = measure_cli(linear_png, layout, dir.path, "--transfer gamma:x");
+  CHECK(bogus.exit_code == 3);
+  CHECK(bogus.out.find("use auto, linear, srgb or gamma:G") != std::string::npos);
 }
 
 TEST_CASE("encoding: an untagged 16-bit PNG holding sRGB codes is recognised and measured as sRGB") {
