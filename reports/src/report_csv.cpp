@@ -9,17 +9,14 @@
 namespace tactres {
 namespace {
 
-std::string quote(const std::string& s) { return csv_cell(s); }
-std::string num(std::optional<double> v, int digits) { return csv_number(v, digits); }
-
 // group,element,lp_per_mm,beyond_finest,interp,interp_sd,interp_sigma,pct
 std::string orientation_cells(const OrientationSummary& o, bool measured) {
   if (!measured) return ",,,,,,,";
   const bool r = o.resolved_any;
   return fmt::format("{},{},{},{},{},{},{},{}", r ? std::to_string(o.group) : "", r ? std::to_string(o.element) : "",
-                     r ? num(o.lp_per_mm, 4) : "", r ? (o.beyond_finest ? "true" : "false") : "",
-                     num(o.interp_lp_per_mm, 4), num(o.interp_sd_lp_per_mm, 4), num(o.interp_sigma_lp_per_mm, 4),
-                     num(o.pct_of_reference, 2));
+                     r ? csv_number(o.lp_per_mm, 4) : "", r ? (o.beyond_finest ? "true" : "false") : "",
+                     csv_number(o.interp_lp_per_mm, 4), csv_number(o.interp_sd_lp_per_mm, 4), csv_number(o.interp_sigma_lp_per_mm, 4),
+                     csv_number(o.pct_of_reference, 2));
 }
 
 std::string row_csv(const Comparison& c, const DesignRow& row) {
@@ -42,13 +39,13 @@ std::string row_csv(const Comparison& c, const DesignRow& row) {
   // Sigma basis: which uncertainty interp_sigma is (docs/REPORT.md).
   const char* basis = row.n == 1 ? "measurement" : row.n >= 2 ? "spread_and_mean_sigma" : "";
   return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", is_ref ? "reference" : "design",
-                     quote(row.design), row.n, row.n_failed, to_string(row.status),
+                     csv_cell(row.design), row.n, row.n_failed, to_string(row.status),
                      orientation_cells(row.horizontal, measured), orientation_cells(row.vertical, measured), basis,
-                     num(row.mean_hv_lp_per_mm, 4), num(row.mean_pct_of_reference, 2),
+                     csv_number(row.mean_hv_lp_per_mm, 4), csv_number(row.mean_pct_of_reference, 2),
                      row.rank ? std::to_string(*row.rank) : "",
-                     is_ref && c.nyquist_h_lp_per_mm > 0 ? num(c.nyquist_h_lp_per_mm, 4) : "",
-                     is_ref && c.nyquist_v_lp_per_mm > 0 ? num(c.nyquist_v_lp_per_mm, 4) : "",
-                     fmt::format("{}", c.threshold), quote(problems), quote(files));
+                     is_ref && c.nyquist_h_lp_per_mm > 0 ? csv_number(c.nyquist_h_lp_per_mm, 4) : "",
+                     is_ref && c.nyquist_v_lp_per_mm > 0 ? csv_number(c.nyquist_v_lp_per_mm, 4) : "",
+                     fmt::format("{}", c.threshold), csv_cell(problems), csv_cell(files));
 }
 
 }  // namespace

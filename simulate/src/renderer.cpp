@@ -1,12 +1,12 @@
 #include "tactres/simulate/renderer.h"
 
-#include <chrono>
 #include <cmath>
 #include <numbers>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tactres/util/stopwatch.h"
 #include "tactres/simulate/effects/illumination.h"
 #include "tactres/simulate/effects/psf.h"
 #include "tactres/simulate/effects/relief_field.h"
@@ -97,10 +97,6 @@ double TargetRadiance::over_footprint(const Vec2 quad[4]) const { return impl_->
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
 
 // cos of the chief-ray angle at every pixel, from the lens model's rays on a
 // coarse lattice (the field is smooth), bilinearly upsampled.
@@ -136,7 +132,7 @@ cv::Mat cos_chief_ray(const CameraModel& camera, int w, int h) {
 RenderResult render_scene(const Scene& scene, const TargetLayout& layout, const CameraModel& camera,
                           std::optional<std::uint64_t> seed) {
   RenderResult result;
-  auto t0 = Clock::now();
+  Stopwatch t0;
   const int W = camera.imager_width(), H = camera.imager_height();
   const int s = scene.supersampling;
   const TargetView view(camera, scene.rt_camera_from_target(layout));
@@ -144,9 +140,9 @@ RenderResult render_scene(const Scene& scene, const TargetLayout& layout, const 
   // sub-pixel corner, with a margin for bilinear lookups.
   const InverseMap map(view, -1.0, -1.0, W, H, 4.0);
   const TargetRadiance radiance(scene, layout);
-  result.stage_seconds.push_back({"lens_map", seconds_since(t0)});
+  result.stage_seconds.push_back({"lens_map", t0.seconds()});
 
-  t0 = Clock::now();
+  t0.restart();
   cv::Mat super(H * s, W * s, CV_32F);
   cv::parallel_for_(cv::Range(0, H * s), [&](const cv::Range& rows) {
     std::vector<std::optional<Vec2>> top(W * s + 1), bottom(W * s + 1);
@@ -169,12 +165,12 @@ RenderResult render_scene(const Scene& scene, const TargetLayout& layout, const 
       std::swap(top, bottom);
     }
   });
-  result.stage_seconds.push_back({"target_plane", seconds_since(t0)});
+  result.stage_seconds.push_back({"target_plane", t0.seconds()});
 
   if (const PsfOptions* psf = scene.find<PsfOptions>()) {
-    t0 = Clock::now();
+    t0.restart();
     apply_psf(super, *psf, 1.0 / s);
-    result.stage_seconds.push_back({"blur", seconds_since(t0)});
+    result.stage_seconds.push_back({"blur", t0.seconds()});
   }
 
   cv::Mat image;
@@ -182,17 +178,17 @@ RenderResult render_scene(const Scene& scene, const TargetLayout& layout, const 
   else cv::resize(super, image, cv::Size(W, H), 0, 0, cv::INTER_AREA);  // exact box mean for integer s
 
   if (const VignettingEffect* v = scene.find<VignettingEffect>()) {
-    t0 = Clock::now();
+    t0.restart();
     apply_vignetting(image, cos_chief_ray(camera, W, H), v->exponent);
-    result.stage_seconds.push_back({"vignetting", seconds_since(t0)});
+    result.stage_seconds.push_back({"vignetting", t0.seconds()});
   }
   if (const SensorOptions* sensor = scene.find<SensorOptions>()) {
-    t0 = Clock::now();
+    t0.restart();
     SensorOptions o = *sensor;
     if (seed) o.seed = *seed;
     image = apply_sensor(image, o);
     result.bits = o.bit_depth;
-    result.stage_seconds.push_back({"sensor", seconds_since(t0)});
+    result.stage_seconds.push_back({"sensor", t0.seconds()});
   }
   result.image = image;
   return result;

@@ -1,7 +1,6 @@
 #include "tactres/measure/chart_measure.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <optional>
 #include <tuple>
@@ -10,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "tactres/util/stopwatch.h"
 #include "tactres/measure/element_grading.h"
 #include "tactres/profiles/profile_sampler.h"
 #include "tactres/camera/target_view.h"
@@ -25,8 +25,6 @@ void ChartMeasureOptions::validate() const {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 Vec2 perp(Vec2 d) { return {-d.y, d.x}; }
 
@@ -310,10 +308,10 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
   M.transfer = image.transfer;
   const cv::Mat& lum = image.luminance;
 
-  auto t = Clock::now();
+  Stopwatch t;
   out.detection = detect_chart(lum, options.detect);
   const ChartDetection& D = out.detection;
-  M.stage_seconds.push_back({"detect_chart", since(t)});
+  M.stage_seconds.push_back({"detect_chart", t.seconds()});
   if (!D.found) {
     M.problem = D.problem;
     return out;
@@ -334,7 +332,7 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
 
   // Frames: centred on each pattern, then the scale from the profile model
   // on the coarse patterns, smoothed over the chart.
-  t = Clock::now();
+  t.restart();
   std::vector<LocalFrame> frames;
   std::vector<std::pair<Vec2, double>> scale_samples[2];  // [across_x]
   for (const PatternRef& r : refs) {
@@ -376,12 +374,12 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
     if (!D.patterns[r.pattern].predicted && norm(detected.center_px - f.center_px) > 0.1 * px_per_bar)
       at_detected[i] = sampler.sample(r, detected, so);
   }
-  M.stage_seconds.push_back({"frames", since(t)});
+  M.stage_seconds.push_back({"frames", t.seconds()});
 
   // Contrast scale per direction: the median of the three coarsest
   // elements that allow it, so that one odd pattern (a mismatch, dust on a
   // bar) does not scale every other.
-  t = Clock::now();
+  t.restart();
   ReferenceResult& ref = M.reference;
   ref.signature = Signature::albedo;
   std::vector<ProfileFit> contrast_fits[2];  // [across_x]
@@ -408,7 +406,7 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
     (ax ? ref.chi2_x : ref.chi2_y) = med.chi2_reduced;
     have[ax] = true;
   }
-  M.stage_seconds.push_back({"reference_patch", since(t)});
+  M.stage_seconds.push_back({"reference_patch", t.seconds()});
   if (!have[0] && !have[1]) {
     M.problem =
         "the chart's level step cannot be measured: no element in full view has 3 or more pixels per bar with "
@@ -467,7 +465,7 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
   }
   M.stage_seconds.push_back({"fits", fit_s});
 
-  t = Clock::now();
+  t.restart();
   // The limit runs over the elements in view: a chart photograph frames
   // some groups and cuts others, and a cut coarse element says nothing
   // about the finer ones (layout mode, which frames the whole target,
@@ -492,7 +490,7 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
   std::stable_sort(M.elements.begin(), M.elements.end(), [](const ElementResult& a, const ElementResult& b) {
     return std::tuple(a.group, a.element) < std::tuple(b.group, b.element);
   });
-  M.stage_seconds.push_back({"decide", since(t)});
+  M.stage_seconds.push_back({"decide", t.seconds()});
   M.usable = true;
   return out;
 }

@@ -1,11 +1,12 @@
 #include "tactres/measure/element_grading.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <tuple>
 
 #include <fmt/format.h>
+
+#include "tactres/util/stopwatch.h"
 
 namespace tactres {
 
@@ -39,11 +40,11 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     r.status = ElementStatus::clipped;
     return 0;
   }
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch fit_time;
   std::tie(fo.start_nu0_per_mm, fo.start_beta) = warm_lsf;
   const ProfileFit fit = prepare ? fit_profile(prepare(sp.data, fo), fo) : fit_profile(sp.data, fo);
   if (fit.usable) warm_lsf = {fit.nu0_per_mm, fit.beta};
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double seconds = fit_time.seconds();
   if (!fit.usable) {
     r.status = ElementStatus::fit_failed;
     return seconds;

@@ -1,9 +1,9 @@
 #include "tactres/measure/measure.h"
+#include "tactres/util/stopwatch.h"
 #include "tactres/locate/rectified_search.h"
 #include "tactres/measure/reference_patch.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <tuple>
@@ -86,8 +86,6 @@ void MeasureOptions::validate() const {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 // A copy with masked (NaN) pixels filled by the median, for OpenCV's blob
 // search, which has no notion of "no data".
@@ -139,7 +137,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     }
   }
 
-  auto t = Clock::now();
+  Stopwatch t;
   // (A copy only when pixels are masked: it costs ~1 ms per megapixel.)
   const cv::Mat detection_image = cv::checkRange(lum_in) ? lum_in : filled_for_detection(lum_in);
   PoseOptions po;
@@ -174,13 +172,13 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     }
     if (!search_camera) M.fiducials = find_fiducials(detection_image, layout);
   }
-  M.stage_seconds.push_back({"locate_fiducials", since(t)});
+  M.stage_seconds.push_back({"locate_fiducials", t.seconds()});
   if (!M.fiducials.found) {
     M.problem = M.fiducials.problem.empty() ? "no target found" : M.fiducials.problem;
     return M;
   }
 
-  t = Clock::now();
+  t.restart();
   const std::vector<DiscObservation> discs = observations_of(M.fiducials);
   std::optional<CameraModel> fitted;
   if (search_camera) {
@@ -203,7 +201,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     M.camera_source = "pinhole fitted from the fiducials (no camera model: distortion not corrected)";
     M.distortion_corrected = false;
   }
-  M.stage_seconds.push_back({"pose", since(t)});
+  M.stage_seconds.push_back({"pose", t.seconds()});
   if (!M.pose.usable || (!camera && !fitted)) {
     M.problem = "the fiducials do not fit the layout (" + M.pose.message +
                 "): is this the layout of the captured target, and the right camera model?";
@@ -228,7 +226,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   // Reference patch: the contrast scale per direction, the signature
   // (printed bars vs relief through a gel) when it is not given, and the
   // check that the pixels were decoded with the curve the patch fits.
-  t = Clock::now();
+  t.restart();
   M.transfer = image.transfer;
   cv::Mat redecoded;  // the capture under a better curve, when one replaces a guess
   const PatchScene patch_scene{view, layout, index, clip_level, camera != nullptr};
@@ -253,14 +251,14 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     M.reference.problem.clear();
   }
   const ReferenceResult& ref = M.reference;
-  M.stage_seconds.push_back({"reference_patch", since(t)});
+  M.stage_seconds.push_back({"reference_patch", t.seconds()});
   if (!ref.usable) {
     M.problem = ref.problem;
     return M;
   }
 
   // Elements.
-  t = Clock::now();
+  t.restart();
   double sample_s = 0, fit_s = 0;
   // Warm start per orientation from the last good fit (coarse to fine).
   std::pair<double, double> last_lsf[2] = {{0, 0}, {0, 0}};
@@ -271,14 +269,14 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
     r.orientation = e.orientation;
     r.lp_per_mm = e.lp_per_mm;
     const bool across_x = e.orientation == BarOrientation::vertical_bars;
-    auto ts = Clock::now();
+    Stopwatch ts;
     ProfileSamplingOptions so = options.sampling;
     const Strip strip = element_strip(e, so);
     r.px_per_bar = e.bar_width_mm * view.px_per_mm(strip.center_mm, across_x);
     // Coarse elements need no quarter-pixel bins: cap the bins per bar.
     so.bin_px = std::max(so.bin_px, r.px_per_bar / options.max_bins_per_bar);
     const SampledProfile sp = sample_strip(lum, view, layout, index, strip, so, clip_level);
-    sample_s += since(ts);
+    sample_s += ts.seconds();
     ProfileFitOptions fo;
     fo.signature = ref.signature;
     fo.fit_contrast = false;
@@ -303,9 +301,9 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   M.stage_seconds.push_back({"fits", fit_s});
 
   // Decide.
-  t = Clock::now();
+  t.restart();
   decide_limits(M, options.criterion, false);
-  M.stage_seconds.push_back({"decide", since(t)});
+  M.stage_seconds.push_back({"decide", t.seconds()});
   M.usable = true;
   return M;
 }

@@ -106,14 +106,12 @@ std::string measurement_csv_header() {
 }
 
 std::string measurement_csv_rows(const Measurement& m, const MeasurementContext& ctx) {
-  auto quote = [](const std::string& s) { return csv_cell(s); };
-  auto num = [](double v, int digits) { return csv_number(v, digits); };
   std::string out;
   for (const ElementResult& e : m.elements) {
     const bool ok = e.status == ElementStatus::ok;
-    out += fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", quote(ctx.image), quote(ctx.design), e.group,
-                       e.element, to_string(e.orientation), num(e.lp_per_mm, 4), num(e.px_per_bar, 3),
-                       ok ? num(e.m, 5) : "", ok ? num(e.m_sigma, 5) : "", to_string(e.status),
+    out += fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", csv_cell(ctx.image), csv_cell(ctx.design), e.group,
+                       e.element, to_string(e.orientation), csv_number(e.lp_per_mm, 4), csv_number(e.px_per_bar, 3),
+                       ok ? csv_number(e.m, 5) : "", ok ? csv_number(e.m_sigma, 5) : "", to_string(e.status),
                        e.resolved ? "true" : "false");
   }
   return out;
