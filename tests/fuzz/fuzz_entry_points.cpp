@@ -258,7 +258,7 @@ void profile_fit(const std::uint8_t* data, std::size_t size) {
     return;
   }
   if (!fit.usable) {
-    require(!fit.failure.empty(), "profile_fit", "unusable fit without a reason");
+    require(!fit.problem.empty(), "profile_fit", "unusable fit without a reason");
     return;
   }
   require(std::isfinite(fit.nu0_per_mm) && fit.nu0_per_mm > 0, "profile_fit", "nu0 not finite and positive");

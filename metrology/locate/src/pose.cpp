@@ -298,7 +298,7 @@ bool finish_result(const CameraModel& camera, std::span<const DiscObservation> d
     const auto c = project_disc_centroid(camera, rt, discs[i].center_mm, discs[i].radius_mm,
                                          options.boundary_points);
     if (!c) {
-      result.message = "fiducial disc " + std::to_string(i) + " cannot be projected at the fitted pose";
+      result.problem = "fiducial disc " + std::to_string(i) + " cannot be projected at the fitted pose";
       return false;
     }
     const Vec2 r = *discs[i].centroid_px - *c;
@@ -561,7 +561,7 @@ PoseResult fit_pose(const CameraModel& camera, std::span<const DiscObservation> 
   const std::vector<std::size_t> observed = observed_indices(discs);
   result.observed_disc_indices = observed;
   if (observed.size() < 4) {
-    result.message = too_few_message(observed.size(), discs.size());
+    result.problem = too_few_message(observed.size(), discs.size());
     return result;
   }
 
@@ -571,7 +571,7 @@ PoseResult fit_pose(const CameraModel& camera, std::span<const DiscObservation> 
   } else {
     const auto guess = robust_initial_pose(camera, discs, observed, options);
     if (!guess) {
-      result.message =
+      result.problem =
           "no initial pose: the observed fiducial centroids are degenerate (collinear, repeated or "
           "outside the lens model's field)";
       return result;
@@ -588,12 +588,12 @@ PoseResult fit_pose(const CameraModel& camera, std::span<const DiscObservation> 
   ceres::Solve(solver_options(options), &problem, &summary);
   result.solver_report = summary.BriefReport();
   if (!summary.IsSolutionUsable()) {
-    result.message = "the pose fit failed: " + summary.message;
+    result.problem = "the pose fit failed: " + summary.message;
     return result;  // rt is not read after a failure
   }
   if (!finish_result(camera, discs, observed, options, rt, result)) return result;
   if (summary.termination_type != ceres::CONVERGENCE)
-    result.message = "the pose fit stopped before converging: " + summary.message;
+    result.problem = "the pose fit stopped before converging: " + summary.message;
   if (options.compute_covariance) result.covariance_rt_per_px2 = covariance_of(problem, rt.data());
   result.usable = true;
   return result;
@@ -612,7 +612,7 @@ PinholePoseResult fit_pinhole_and_pose(int image_width, int image_height,
   const std::vector<std::size_t> observed = observed_indices(discs);
   result.observed_disc_indices = observed;
   if (observed.size() < 4) {
-    result.message = too_few_message(observed.size(), discs.size());
+    result.problem = too_few_message(observed.size(), discs.size());
     return out;
   }
   const double cx = 0.5 * (image_width - 1), cy = 0.5 * (image_height - 1);
@@ -631,7 +631,7 @@ PinholePoseResult fit_pinhole_and_pose(int image_width, int image_height,
   }
   const auto Hpx = fit_homography(target, centred);
   if (!Hpx) {
-    result.message = "no initial pose: the observed fiducial centroids are degenerate";
+    result.problem = "no initial pose: the observed fiducial centroids are degenerate";
     return out;
   }
   double f = f_prior;
@@ -652,7 +652,7 @@ PinholePoseResult fit_pinhole_and_pose(int image_width, int image_height,
   const Eigen::Matrix3d Hn = Eigen::Vector3d(1.0 / f, 1.0 / f, 1.0).asDiagonal() * *Hpx;
   const auto guess = pose_from_homography(Hn, mean);
   if (!guess) {
-    result.message = "no initial pose: the observed fiducial centroids are degenerate";
+    result.problem = "no initial pose: the observed fiducial centroids are degenerate";
     return out;
   }
   RtCameraFromTarget rt = *guess;
@@ -670,13 +670,13 @@ PinholePoseResult fit_pinhole_and_pose(int image_width, int image_height,
   ceres::Solve(solver_options(po), &problem, &summary);
   result.solver_report = summary.BriefReport();
   if (!summary.IsSolutionUsable()) {
-    result.message = "the pinhole + pose fit failed: " + summary.message;
+    result.problem = "the pinhole + pose fit failed: " + summary.message;
     return out;  // parameters are not read after a failure
   }
   const CameraModel camera = CameraModel::pinhole(f, f, cx, cy, image_width, image_height);
   if (!finish_result(camera, discs, observed, po, rt, result)) return out;
   if (summary.termination_type != ceres::CONVERGENCE)
-    result.message = "the pinhole + pose fit stopped before converging: " + summary.message;
+    result.problem = "the pinhole + pose fit stopped before converging: " + summary.message;
 
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;

@@ -212,7 +212,7 @@ TEST_CASE("fit_pose recovers known poses through the wide-angle lens, noise-free
     CAPTURE(s.name);
     const auto discs = observe(*s.camera, s.rt);
     const PoseResult r = fit_pose(*s.camera, discs);
-    CAPTURE(r.message);
+    CAPTURE(r.problem);
     CAPTURE(r.solver_report);
     REQUIRE(r.usable);
     MESSAGE(s.name << ": rotation error " << rotation_error_rad(r.rt_camera_from_target_mm, s.rt)
@@ -317,7 +317,7 @@ TEST_CASE("fit_pose works with a missing disc and reports too few or degenerate 
   discs[4].centroid_px.reset();
   const PoseResult three = fit_pose(*s.camera, discs);
   CHECK_FALSE(three.usable);
-  CHECK(three.message == "only 3 of 5 fiducial discs were found; the pose needs at least 4");
+  CHECK(three.problem == "only 3 of 5 fiducial discs were found; the pose needs at least 4");
   CHECK(three.solver_report.empty());
 
   // Four collinear discs (the top edge) cannot fix a pose.
@@ -329,7 +329,7 @@ TEST_CASE("fit_pose works with a missing disc and reports too few or degenerate 
   }
   const PoseResult degenerate = fit_pose(*s.camera, line);
   CHECK_FALSE(degenerate.usable);
-  CHECK(degenerate.message.find("degenerate") != std::string::npos);
+  CHECK(degenerate.problem.find("degenerate") != std::string::npos);
 }
 
 TEST_CASE("fit_pose and its options reject invalid input") {
@@ -361,7 +361,7 @@ TEST_CASE("fit_pinhole_and_pose recovers the focal length of a tilted pinhole vi
   const auto rt = make_rt(compose({0, 0, 15 * kDeg}, {0, 28 * kDeg, 0}), {10, 10}, {0.5, -0.4, 26});
   const auto discs = observe(pinhole(), rt);
   const PinholePoseResult r = fit_pinhole_and_pose(1280, 720, discs);
-  CAPTURE(r.pose.message);
+  CAPTURE(r.pose.problem);
   REQUIRE(r.pose.usable);
   REQUIRE(r.camera.has_value());
   MESSAGE("pinhole fit: f = " << r.focal_px << " px (true 560), RMS " << r.pose.rms_px << " px");

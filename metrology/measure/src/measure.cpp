@@ -203,7 +203,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   }
   M.stage_seconds.push_back({"pose", t.seconds()});
   if (!M.pose.usable || (!camera && !fitted)) {
-    M.problem = "the fiducials do not fit the layout (" + M.pose.message +
+    M.problem = "the fiducials do not fit the layout (" + M.pose.problem +
                 "): is this the layout of the captured target, and the right camera model?";
     return M;
   }

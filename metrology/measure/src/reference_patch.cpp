@@ -79,12 +79,12 @@ ReferenceResult fit_reference_patch(const cv::Mat& lum, const PatchScene& scene,
   // be measured; its elements say why the first cannot (measure.cpp).
   const bool shading = ref.signature == Signature::shading;
   if (!fits.first.usable && !fits.second.usable) {
-    ref.problem = "the reference patch could not be fitted: " + fits.first.failure;
+    ref.problem = "the reference patch could not be fitted: " + fits.first.problem;
     return ref;
   }
   if ((!fits.first.usable || !fits.second.usable) && !shading) {
     ref.problem =
-        "the reference patch could not be fitted: " + (fits.first.usable ? fits.second.failure : fits.first.failure);
+        "the reference patch could not be fitted: " + (fits.first.usable ? fits.second.problem : fits.first.problem);
     return ref;
   }
   if (fits.first.usable) {

@@ -233,7 +233,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   if (n < 8 || data.bin_mm <= 0 || data.fit_begin < 0 || data.fit_end > n ||
       data.value.size() != nn || data.u_mean_mm.size() != nn || data.sigma.size() != nn ||
       data.count.size() != nn) {
-    out.failure = "profile too short or inconsistent";
+    out.problem = "profile too short or inconsistent";
     return out;
   }
   // Non-finite geometry or weights would reach the model as NaN positions
@@ -246,7 +246,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
     if (data.count[i] > 0 && std::isfinite(data.value[i]))
       finite = finite && std::isfinite(data.u_mean_mm[i]) && std::isfinite(data.sigma[i]) && data.sigma[i] > 0;
   if (!finite) {
-    out.failure = "profile has non-finite positions, weights or pattern";
+    out.problem = "profile has non-finite positions, weights or pattern";
     return out;
   }
 
@@ -256,7 +256,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
                           (options.quadratic_background ? 1 : 0);
   if (cost->residual_count() < free_params + 3) {
     delete cost;
-    out.failure = "too few samples across the bars";
+    out.problem = "too few samples across the bars";
     return out;
   }
 
@@ -310,7 +310,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.solver_report = summary.BriefReport();
   out.residual_count = cost->residual_count();
   if (!summary.IsSolutionUsable()) {
-    out.failure = "solver failed: " + summary.message;
+    out.problem = "solver failed: " + summary.message;
     return out;
   }
 
@@ -326,7 +326,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   ceres::Covariance covariance(co);
   std::vector<std::pair<const double*, const double*>> blocks = {{x, x}};
   if (!covariance.Compute(blocks, &problem)) {
-    out.failure = "the fit is degenerate (no contrast, or the pattern is not in the data)";
+    out.problem = "the fit is degenerate (no contrast, or the pattern is not in the data)";
     return out;
   }
   double cov[kParamCount * kParamCount];
@@ -344,7 +344,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.b1_per_mm = x[kB1];
   out.usable = std::isfinite(out.nu0_per_mm) && std::isfinite(out.beta) &&
                std::isfinite(out.var_log_nu0) && std::isfinite(out.var_beta);
-  if (!out.usable) out.failure = "the fit produced non-finite parameters";
+  if (!out.usable) out.problem = "the fit produced non-finite parameters";
   return out;
 }
 

@@ -158,6 +158,6 @@ TEST_CASE("no contrast is a graded failure, not a NaN") {
     CHECK(std::isfinite(fit.transfer(0.5 / bars.w)));
     CHECK(std::abs(fit.contrast) < 1e-3);
   } else {
-    CHECK_FALSE(fit.failure.empty());
+    CHECK_FALSE(fit.problem.empty());
   }
 }

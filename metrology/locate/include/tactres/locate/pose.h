@@ -69,10 +69,10 @@ struct PoseOptions {
 
 struct PoseResult {
   // False if there were too few discs, the geometry was degenerate or Ceres
-  // gave no usable solution; `message` then says why, and the numbers below
+  // gave no usable solution; `problem` then says why, and the numbers below
   // are not to be used (they hold the initial guess at best).
   bool usable = false;
-  std::string message;
+  std::string problem;
   RtCameraFromTarget rt_camera_from_target_mm{};
   // RMS over observed discs of the residual length |observed - predicted|, px.
   double rms_px = 0.0;

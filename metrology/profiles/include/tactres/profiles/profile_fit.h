@@ -87,7 +87,7 @@ struct ProfileFitOptions {
 
 struct ProfileFit {
   bool usable = false;          // false: nothing below may be read
-  std::string failure;          // why not usable
+  std::string problem;          // why not usable
   double nu0_per_mm = 0, beta = 2;
   double contrast = 0, contrast_sigma = 0;
   double b0 = 0, b1_per_mm = 0;
