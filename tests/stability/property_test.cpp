@@ -347,7 +347,7 @@ TEST_SUITE("property") {
       const ProfileFit a = make(s1, false), b = make(s2, false), am = make(s1, true);
       for (const ProfileFit* p : {&a, &b, &am}) {
         if (!p->usable) {
-          CHECK_FALSE(p->failure.empty());
+          CHECK_FALSE(p->problem.empty());
           continue;
         }
         ++usable;
