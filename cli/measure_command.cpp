@@ -48,13 +48,21 @@ struct Outcome {
   std::optional<double> h_lp_per_mm, v_lp_per_mm;
 };
 
-std::string limit_text(const Limit& l) {
+// `relative`: a chart whose group is unknown; its frequencies are then
+// multiples of the largest element's (which is called G0E1, 1 "lp/mm").
+std::string limit_text(const Limit& l, bool relative = false) {
   if (!l.any_resolved) return "none resolved";
-  std::string s = fmt::format("G{}E{} {:.2f} lp/mm", l.group, l.element, l.lp_per_mm);
+  const char* unit = relative ? "x the largest element's frequency" : "lp/mm";
+  std::string s = fmt::format("G{}E{} {:.2f} {}", l.group, l.element, l.lp_per_mm, unit);
   if (l.interpolated_lp_per_mm)
     s += fmt::format(" (interp. {:.2f} ± {:.2f})", *l.interpolated_lp_per_mm, l.uncertainty_lp_per_mm.value_or(0));
   else if (l.beyond_finest)
     s += " (all resolved)";
+  if (!l.bridged.empty()) {
+    std::vector<std::string> names;
+    for (const Limit::Bridged& b : l.bridged) names.push_back(fmt::format("G{}E{}", b.group, b.element));
+    s += fmt::format(" [across unmeasured {}]", fmt::join(names, ", "));
+  }
   return s;
 }
 
@@ -134,14 +142,6 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
       ChartMeasurement cm = measure_chart(img, co);
       m = std::move(cm.measurement);
       chart = std::move(cm.detection);
-      // A chart in which nothing is resolved cannot be measured: the JSON
-      // still shows the coarsest element found as unresolved.
-      if (m.usable && !m.horizontal.any_resolved && !m.vertical.any_resolved) {
-        m.usable = false;
-        m.problem =
-            "nothing on the chart is resolved: even the coarsest element found is below the criterion; bring the "
-            "chart into focus or frame coarser groups";
-      }
     }
   } catch (const UnusableInput& e) {
     m.usable = false;
@@ -161,9 +161,8 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   // Outputs, each atomic. An unusable capture still gets its JSON, which
   // says why, so that reports show it as failed instead of dropping it.
   if (!json_path.empty()) {
-    nlohmann::json j = measurement_to_json(m, ctx);
-    if (chart) j["chart"] = chart_to_json(*chart);
-    write_file_atomically(json_path, j.dump(2) + "\n");
+    ctx.chart = chart ? &*chart : nullptr;
+    write_file_atomically(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
   }
   if (m.usable || (chart && !m.elements.empty())) {
     if (!csv_path.empty())
@@ -176,6 +175,14 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
     o.exit_code = kExitUnusableInput;
     o.problem = m.problem;
     o.summary = fmt::format("{}: unusable: {}", o.design, m.problem);
+    return o;
+  }
+  if (chart && chart->anchor == ChartAnchor::none && (a.require_h || a.require_v)) {
+    o.exit_code = kExitUnusableInput;
+    o.problem =
+        "the chart's group is unknown (see the anchor in the JSON), so --require-h/-v cannot "
+        "be checked in lp/mm: give --largest-group G [--largest-element E] or --px-per-mm";
+    o.summary = fmt::format("RELATIVE: {}: unusable for the requirement: {}", o.design, o.problem);
     return o;
   }
   o.h_lp_per_mm = gate_value(m.horizontal);
@@ -200,10 +207,12 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   }
   if (chart) {
     const bool relative = chart->anchor == ChartAnchor::none;
-    o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded; chart {}, anchor: {}{}{}", o.design,
-                            limit_text(m.horizontal), limit_text(m.vertical), ok, other,
-                            chart->light_bars ? "negative" : "positive", chart_anchor_text(*chart),
-                            relative ? " (indices relative to the largest element found = G0E1; lp/mm relative)" : "",
+    o.summary = fmt::format("{}{}: H {}; V {}; {} elements ok, {} graded; chart {}, anchor: {}{}{}",
+                            relative ? "RELATIVE: " : "", o.design, limit_text(m.horizontal, relative),
+                            limit_text(m.vertical, relative), ok, other, chart->light_bars ? "negative" : "positive",
+                            chart_anchor_text(*chart),
+                            relative ? " (group unknown: indices count from the largest element found, called G0E1)"
+                                     : "",
                             spec);
   } else {
     o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded{}{}", o.design, limit_text(m.horizontal),

@@ -79,7 +79,7 @@ Truth compute_truth(const Scene& scene, const TargetLayout& layout, const Camera
     const double ix = (J[3] * kx - J[2] * ky) / det;
     const double iy = (-J[1] * kx + J[0] * ky) / det;
     const double nu_px = std::hypot(ix, iy);
-    te.px_per_bar = e.bar_width_mm * view.px_per_mm(e.extent_mm().center_mm(), !horizontal);
+    te.px_per_bar = e.bar_width_mm * view.px_per_mm_across(e.extent_mm().center_mm(), e.orientation);
 
     double m = sinc(ix) * sinc(iy);
     if (psf) m *= psf_mtf(*psf, nu_px);

@@ -18,6 +18,7 @@
 
 #include "scene_fixtures.h"
 #include "tactres/measure/chart_measure.h"
+#include "tactres/measure/measurement_io.h"
 #include "tactres/targets/mil_std_chart.h"
 
 using namespace tactres;
@@ -185,8 +186,8 @@ void check_against_truth(const ChartRun& run, const std::string& label, int min_
   }
   CHECK(worst_dm <= 0.05);
   if (std::getenv("TACTRES_CHART_DEBUG"))
-    MESSAGE("contrast x " << M.reference.contrast_x << " +- " << M.reference.contrast_x_sigma << ", y " << M.reference.contrast_y
-                          << " +- " << M.reference.contrast_y_sigma);
+    MESSAGE("contrast x " << M.reference.vertical_bars.contrast << " +- " << M.reference.vertical_bars.contrast_sigma << ", y " << M.reference.horizontal_bars.contrast
+                          << " +- " << M.reference.horizontal_bars.contrast_sigma);
   const Limits truth = visible_truth_limits(run.truth, Criterion{});
   for (const auto& [reported, want, name] :
        {std::tuple(M.horizontal, truth.horizontal, std::string("H")), std::tuple(M.vertical, truth.vertical, std::string("V"))}) {

@@ -169,19 +169,20 @@ TEST_CASE("fuzz: write the corpus seeds" * doctest::skip(std::getenv("TACTRES_WR
     const RenderResult big = render_scene(albedo_scene({}, 1.2, 2), default_layout(), wide_angle_camera());
     const auto rt = albedo_scene({}, 1.2, 2).rt_camera_from_target(default_layout());
     const TargetView view(wide_angle_camera(), rt);
-    const ArtworkIndex index(default_layout().artwork, 0.0);
+    const IndexedArtwork artwork(default_layout().artwork, 0.0);
     ProfileSamplingOptions so;
     int k = 0;
     for (const ElementLayout& e : default_layout().elements) {
       if (!((e.group == 0 && e.element == 1) || (e.group == 1 && e.element == 4) || (e.group == 2 && e.element == 3)))
         continue;
-      const SampledProfile sp = sample_strip(big.image, view, default_layout(), index, element_strip(e, so), so, 0);
+      const SampledProfile sp = sample_strip(big.image, view, artwork, element_strip(e, so), so, 0);
       REQUIRE(sp.in_view);
       ProfileFitOptions fo;
       fo.contrast = -0.94;
       put("profile_fit", "element_" + std::to_string(k++) + ".bin", fuzz::encode_profile_fit(sp.data, fo));
     }
-    const SampledProfile patch = sample_strip(big.image, view, default_layout(), index, patch_strip(default_layout(), true), so, 0);
+    const SampledProfile patch = sample_strip(big.image, view, artwork,
+                                              patch_strip(default_layout(), BarOrientation::vertical_bars), so, 0);
     ProfileFitOptions po;
     po.fit_contrast = true;
     po.fit_shape = false;

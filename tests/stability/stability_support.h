@@ -119,10 +119,10 @@ inline void check_measurement(const Measurement& m, const nlohmann::json& j, con
     CHECK(std::isfinite(m.pose.rms_px));
   }
   if (m.reference.usable) {
-    CHECK(finite_all({m.reference.contrast_x, m.reference.contrast_x_sigma, m.reference.contrast_y,
-                      m.reference.contrast_y_sigma, m.reference.chi2_x, m.reference.chi2_y}));
-    CHECK(m.reference.contrast_x_sigma > 0);
-    CHECK(m.reference.contrast_y_sigma > 0);
+    CHECK(finite_all({m.reference.vertical_bars.contrast, m.reference.vertical_bars.contrast_sigma, m.reference.horizontal_bars.contrast,
+                      m.reference.horizontal_bars.contrast_sigma, m.reference.vertical_bars.chi2_reduced, m.reference.horizontal_bars.chi2_reduced}));
+    CHECK(m.reference.vertical_bars.contrast_sigma > 0);
+    CHECK(m.reference.horizontal_bars.contrast_sigma > 0);
   }
   for (const ElementResult& e : m.elements) {
     CAPTURE(e.group);

@@ -60,15 +60,16 @@ std::vector<std::optional<Vec2>> TargetView::target_from_pixels(std::span<const 
   return out;
 }
 
-double TargetView::px_per_mm(Vec2 target_mm, bool along_x) const {
+double TargetView::px_per_mm_across(Vec2 target_mm, BarOrientation bars) const {
   const auto pj = project_with_jacobian(target_mm);
   if (!pj) return 0.0;
   const auto& J = pj->second;  // |J e_x| or |J e_y|
-  return along_x ? std::hypot(J[0], J[2]) : std::hypot(J[1], J[3]);
+  return bars == BarOrientation::vertical_bars ? std::hypot(J[0], J[2]) : std::hypot(J[1], J[3]);
 }
 
 TargetView::Nyquist TargetView::nyquist(Vec2 target_mm) const {
-  return {0.5 * px_per_mm(target_mm, false), 0.5 * px_per_mm(target_mm, true)};
+  return {0.5 * px_per_mm_across(target_mm, BarOrientation::horizontal_bars),
+          0.5 * px_per_mm_across(target_mm, BarOrientation::vertical_bars)};
 }
 
 bool TargetView::seen_from_behind() const {

@@ -92,11 +92,18 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
   return seconds;
 }
 
-void decide_limits(Measurement& M, const Criterion& criterion, bool skip_out_of_view) {
+bool is_unmeasured(ElementStatus s, bool chart_photograph) {
+  return s == ElementStatus::fit_failed || s == ElementStatus::clipped ||
+         (chart_photograph && s == ElementStatus::out_of_view);
+}
+
+void decide_limits(Measurement& M, const Criterion& criterion, bool chart_photograph) {
   std::vector<OrientedPoint> pts;
-  for (const ElementResult& r : M.elements)
-    if (!skip_out_of_view || r.status != ElementStatus::out_of_view)
-      pts.push_back({r.orientation, {r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok}});
+  for (const ElementResult& r : M.elements) {
+    MPoint p{r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok};
+    p.unmeasured = is_unmeasured(r.status, chart_photograph);
+    pts.push_back({r.orientation, p});
+  }
   const Limits limits = find_limits(pts, criterion);
   M.horizontal = limits.horizontal;
   M.vertical = limits.vertical;

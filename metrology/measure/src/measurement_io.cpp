@@ -66,12 +66,12 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
   }
   if (m.reference.usable)
     j["reference"] = {{"signature", m.reference.signature == Signature::albedo ? "albedo" : "shading"},
-                      {"contrast_x", finite(m.reference.contrast_x)},
-                      {"contrast_x_sigma", finite(m.reference.contrast_x_sigma)},
-                      {"contrast_y", finite(m.reference.contrast_y)},
-                      {"contrast_y_sigma", finite(m.reference.contrast_y_sigma)},
-                      {"chi2_x", finite(m.reference.chi2_x)},
-                      {"chi2_y", finite(m.reference.chi2_y)}};
+                      {"contrast_x", finite(m.reference.vertical_bars.contrast)},
+                      {"contrast_x_sigma", finite(m.reference.vertical_bars.contrast_sigma)},
+                      {"contrast_y", finite(m.reference.horizontal_bars.contrast)},
+                      {"contrast_y_sigma", finite(m.reference.horizontal_bars.contrast_sigma)},
+                      {"chi2_x", finite(m.reference.vertical_bars.chi2_reduced)},
+                      {"chi2_y", finite(m.reference.horizontal_bars.chi2_reduced)}};
   else
     j["reference"] = nullptr;
   j["nyquist_lp_per_mm"] = {{"horizontal_bars", finite(m.nyquist_h_lp_per_mm)},
@@ -98,6 +98,7 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
   timing["decode"] = finite(ctx.decode_seconds);
   for (const auto& [stage, s] : m.stage_seconds) timing[stage] = finite(s);
   j["timing_seconds"] = timing;
+  if (ctx.chart) j["chart"] = chart_to_json(*ctx.chart);
   return j;
 }
 
@@ -156,6 +157,41 @@ cv::Mat overlay_image(const cv::Mat& lum, const Measurement& m) {
                 0.4, cv::Scalar(255, 120, 0), 1, cv::LINE_AA);
   }
   return out;
+}
+
+nlohmann::json chart_to_json(const ChartDetection& d) {
+  nlohmann::json j;
+  j["mode"] = "usaf1951";
+  j["found"] = d.found;
+  j["polarity"] = d.light_bars ? "light_bars_on_dark" : "dark_bars_on_light";
+  j["anchor"] = to_string(d.anchor);
+  j["anchor_description"] = d.anchor_description;
+  j["indices"] = d.anchor == ChartAnchor::none ? "relative" : "absolute";
+  j["patterns_found"] = d.patterns.size();
+  j["elements_found"] = d.elements.size();
+  j["unpaired_patterns"] = d.unpaired_patterns;
+  j["predicted_elements"] = d.predicted_elements;
+  const auto& a = d.arrangement;
+  if (a.steps_checked > 0 || !a.note.empty())
+    j["arrangement"] = {{"recognised", a.recognised},
+                        {"mirrored", a.recognised ? nlohmann::json(a.mirrored) : nlohmann::json()},
+                        {"steps_checked", a.steps_checked},
+                        {"steps_matched", a.steps_matched},
+                        {"group_labels_read", a.labels_read},
+                        {"note", a.note}};
+  j["partial_elements"] = nlohmann::json::array();
+  for (const ChartElement& e : d.partial)
+    j["partial_elements"].push_back(
+          {{"group", e.group},
+           {"element", e.element},
+           {"found", e.h >= 0 ? "horizontal_bars" : "vertical_bars"},
+           {"status", e.partial == ChartElement::Partial::partner_out_of_view ? "out_of_view" : "fit_failed"},
+           {"reason", e.partial_reason}});
+  if (!d.elements.empty()) {
+    const ChartElement& e = d.elements.front();
+    j["largest_element"] = {{"group", e.group}, {"element", e.element}, {"period_px", e.period_px}};
+  }
+  return j;
 }
 
 }  // namespace tactres

@@ -20,7 +20,9 @@ namespace {
 // much with the encoding.
 constexpr double kMuchBetterFactor = 4.0;
 
-double worse_chi2(const ReferenceResult& r) { return std::max(r.chi2_x, r.chi2_y); }
+double worse_chi2(const ReferenceResult& r) {
+  return std::max(r.vertical_bars.chi2_reduced, r.horizontal_bars.chi2_reduced);
+}
 
 }  // namespace
 
@@ -28,10 +30,11 @@ ReferenceResult fit_reference_patch(const cv::Mat& lum, const PatchScene& scene,
   ReferenceResult ref;
   ProfileSamplingOptions ps = options.sampling;
   ps.bin_px = std::max(ps.bin_px, 0.5);  // the patch's long edges need no finer bins
-  const SampledProfile px =
-      sample_strip(lum, scene.view, scene.layout, scene.index, patch_strip(scene.layout, true), ps, scene.clip_level);
-  const SampledProfile py =
-      sample_strip(lum, scene.view, scene.layout, scene.index, patch_strip(scene.layout, false), ps, scene.clip_level);
+  // px: across x (the scale for vertical bars); py: across y.
+  const SampledProfile px = sample_strip(lum, scene.view, scene.artwork,
+                                         patch_strip(scene.layout, BarOrientation::vertical_bars), ps, scene.clip_level);
+  const SampledProfile py = sample_strip(lum, scene.view, scene.artwork,
+                                         patch_strip(scene.layout, BarOrientation::horizontal_bars), ps, scene.clip_level);
   ref.outline_px.assign(px.outline_px.begin(), px.outline_px.end());
   ref.outline_px.insert(ref.outline_px.end(), py.outline_px.begin(), py.outline_px.end());
   if (!px.in_view || !py.in_view) {
@@ -87,18 +90,12 @@ ReferenceResult fit_reference_patch(const cv::Mat& lum, const PatchScene& scene,
         "the reference patch could not be fitted: " + (fits.first.usable ? fits.second.problem : fits.first.problem);
     return ref;
   }
-  if (fits.first.usable) {
-    ref.contrast_x = fits.first.contrast;
-    ref.contrast_x_sigma = fits.first.contrast_sigma;
-    ref.chi2_x = fits.first.chi2_reduced;
-  }
-  if (fits.second.usable) {
-    ref.contrast_y = fits.second.contrast;
-    ref.contrast_y_sigma = fits.second.contrast_sigma;
-    ref.chi2_y = fits.second.chi2_reduced;
-  }
+  if (fits.first.usable)
+    ref.vertical_bars = {fits.first.contrast, fits.first.contrast_sigma, fits.first.chi2_reduced};
+  if (fits.second.usable)
+    ref.horizontal_bars = {fits.second.contrast, fits.second.contrast_sigma, fits.second.chi2_reduced};
   // The patch must stand out of the noise, or nothing can be normalised.
-  ref.usable = ref.has_contrast(true) || ref.has_contrast(false);
+  ref.usable = ref.vertical_bars.usable() || ref.horizontal_bars.usable();
   if (!ref.usable) {
     ref.problem =
         "the reference patch shows no contrast where the layout puts it: is this the layout.json of the captured "

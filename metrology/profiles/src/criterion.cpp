@@ -50,26 +50,37 @@ std::optional<Crossing> crossing(double f0, double m0, double f1, double m1, dou
 
 Limit find_limit(const std::vector<MPoint>& points, const Criterion& c) {
   Limit L;
-  size_t n_ok = 0;
-  while (n_ok < points.size() && is_resolved(points[n_ok], c)) ++n_ok;
-  if (n_ok == 0) return L;
-  const MPoint& last = points[n_ok - 1];
+  const MPoint* last = nullptr;  // the finest resolved element of the chain so far
+  const MPoint* next = nullptr;  // the first measured element that is not resolved
+  std::vector<Limit::Bridged> pending;  // unmeasured since `last`
+  for (const MPoint& p : points) {
+    if (p.unmeasured) {
+      if (last) pending.push_back({p.group, p.element});
+      continue;
+    }
+    if (!is_resolved(p, c)) {
+      next = &p;
+      break;
+    }
+    last = &p;
+    L.bridged.insert(L.bridged.end(), pending.begin(), pending.end());
+    pending.clear();
+  }
+  if (!last) return L;
   L.any_resolved = true;
-  L.group = last.group;
-  L.element = last.element;
-  L.lp_per_mm = last.lp_per_mm;
-  if (n_ok == points.size()) {
+  L.group = last->group;
+  L.element = last->element;
+  L.lp_per_mm = last->lp_per_mm;
+  if (!next) {
     L.beyond_finest = true;
     return L;
   }
-  const MPoint& next = points[n_ok];
   // An unusable next element (aliased, below the sampling limit) gives no
   // crossing: the limit is the last resolved element, without interpolation.
-  if (!next.usable || !std::isfinite(next.m)) return L;
-  if (auto x = crossing(last.lp_per_mm, last.m, next.lp_per_mm, next.m, c.threshold)) {
+  if (!next->usable || !std::isfinite(next->m)) return L;
+  if (auto x = crossing(last->lp_per_mm, last->m, next->lp_per_mm, next->m, c.threshold)) {
     L.interpolated_lp_per_mm = x->f;
-    L.uncertainty_lp_per_mm =
-        std::hypot(x->df_dm0 * last.m_sigma, x->df_dm1 * next.m_sigma);
+    L.uncertainty_lp_per_mm = std::hypot(x->df_dm0 * last->m_sigma, x->df_dm1 * next->m_sigma);
   }
   return L;
 }
@@ -96,6 +107,8 @@ nlohmann::json limit_to_json(const Limit& l) {
   j["uncertainty_lp_per_mm"] =
       l.uncertainty_lp_per_mm ? nlohmann::json(*l.uncertainty_lp_per_mm) : nlohmann::json();
   j["beyond_finest"] = l.beyond_finest;
+  j["bridged"] = nlohmann::json::array();
+  for (const Limit::Bridged& b : l.bridged) j["bridged"].push_back({{"group", b.group}, {"element", b.element}});
   return j;
 }
 

@@ -21,20 +21,21 @@ Strip element_strip(const ElementLayout& e, const ProfileSamplingOptions& o) {
   const double w = e.bar_width_mm;
   Strip s;
   s.center_mm = e.extent_mm().center_mm();
-  s.across_x = e.orientation == BarOrientation::vertical_bars;
+  s.bars = e.orientation;
   s.half_u_mm = 2.5 * w + o.margin_bar_widths * w;
   s.half_v_mm = 0.5 * o.along_fraction * 5 * w;
   s.extend_u_mm = 4 * w;
   return s;
 }
 
-Strip patch_strip(const TargetLayout& layout, bool across_x) {
+Strip patch_strip(const TargetLayout& layout, BarOrientation bars) {
   const RectMm& p = layout.reference_patch_mm;
-  const double size_u = across_x ? p.width_mm() : p.height_mm();
-  const double size_v = across_x ? p.height_mm() : p.width_mm();
+  const bool u_is_width = bars == BarOrientation::vertical_bars;
+  const double size_u = u_is_width ? p.width_mm() : p.height_mm();
+  const double size_v = u_is_width ? p.height_mm() : p.width_mm();
   Strip s;
   s.center_mm = p.center_mm();
-  s.across_x = across_x;
+  s.bars = bars;
   s.half_u_mm = 0.5 * size_u + 0.15 * size_u;
   s.half_v_mm = 0.35 * size_v;
   s.extend_u_mm = 0.25 * size_u;
@@ -43,24 +44,25 @@ Strip patch_strip(const TargetLayout& layout, bool across_x) {
 
 namespace {
 
+bool u_along_x(const Strip& s) { return s.bars == BarOrientation::vertical_bars; }
+
 Vec2 to_target(const Strip& s, double u, double v) {
-  return s.across_x ? Vec2{s.center_mm.x + u, s.center_mm.y + v} : Vec2{s.center_mm.x + v, s.center_mm.y + u};
+  return u_along_x(s) ? Vec2{s.center_mm.x + u, s.center_mm.y + v} : Vec2{s.center_mm.x + v, s.center_mm.y + u};
 }
 
 // Ideal strip profile S(u) from every shape overlapping the extended strip.
-std::vector<IdealBox> ideal_boxes(const TargetLayout& layout, const ArtworkIndex& index, const Strip& s,
-                                  double slice_mm) {
+std::vector<IdealBox> ideal_boxes(const IndexedArtwork& artwork, const Strip& s, double slice_mm) {
   const double U = s.half_u_mm + s.extend_u_mm, V = s.half_v_mm;
   const Vec2 a = to_target(s, -U, -V), b = to_target(s, U, V);
   const RectMm strip{std::min(a.x, b.x), std::min(a.y, b.y), std::max(a.x, b.x), std::max(a.y, b.y)};
   std::vector<int> hits;
-  index.query(strip, hits);
+  artwork.index().query(strip, hits);
   std::vector<IdealBox> boxes;
   for (int i : hits) {
-    const ArtworkShape& shape = layout.artwork[i];
+    const ArtworkShape& shape = artwork.shapes()[i];
     const RectMm bounds = shape.bounds_mm();
-    const double lo = s.across_x ? bounds.x0 - s.center_mm.x : bounds.y0 - s.center_mm.y;
-    const double hi = s.across_x ? bounds.x1 - s.center_mm.x : bounds.y1 - s.center_mm.y;
+    const double lo = u_along_x(s) ? bounds.x0 - s.center_mm.x : bounds.y0 - s.center_mm.y;
+    const double hi = u_along_x(s) ? bounds.x1 - s.center_mm.x : bounds.y1 - s.center_mm.y;
     const double u0 = std::max(lo, -U), u1 = std::min(hi, U);
     if (!(u1 > u0)) continue;
     // Rectangles are one exact box; other shapes are sliced finely in u and
@@ -79,9 +81,8 @@ std::vector<IdealBox> ideal_boxes(const TargetLayout& layout, const ArtworkIndex
 
 }  // namespace
 
-SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const TargetLayout& layout,
-                            const ArtworkIndex& index, const Strip& s, const ProfileSamplingOptions& o,
-                            double clip_level) {
+SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const IndexedArtwork& artwork,
+                            const Strip& s, const ProfileSamplingOptions& o, double clip_level) {
   SampledProfile out;
   const int W = lum.cols, H = lum.rows;
   const double U = s.half_u_mm, V = s.half_v_mm;
@@ -93,14 +94,14 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
       const double u = -U + 2 * U * i / (n - 1), v = -V + 2 * V * j / (n - 1);
-      const auto q = view.project(to_target(s, u, v));
+      const auto q = plane.project(to_target(s, u, v));
       if (!q || q->x < 0 || q->y < 0 || q->x > W - 1 || q->y > H - 1) return out;  // out of view
       px.push_back(*q);
       uv.push_back({u, v});
     }
   out.in_view = true;
   out.outline_px = {px[0], px[n - 1], px[n * n - 1], px[n * (n - 1)]};
-  out.px_per_mm_across = view.px_per_mm(s.center_mm, s.across_x);
+  out.px_per_mm_across = plane.px_per_mm_across(s.center_mm, s.bars);
   if (!(out.px_per_mm_across > 0)) {
     out.in_view = false;
     return out;
@@ -301,8 +302,17 @@ SampledProfile sample_strip(const cv::Mat& lum, const TargetView& view, const Ta
       d.sigma[b] = std::sqrt(var / d.count[b]);
     }
 
-  d.ideal = ideal_boxes(layout, index, s, 0.25 * d.bin_mm);
+  d.ideal = ideal_boxes(artwork, s, 0.25 * d.bin_mm);
   return out;
+}
+
+bool is_complement_box(const ProfileData& d, const IdealBox& b) {
+  return b.level == 1.0 && b.u0_mm <= d.u0_mm && b.u1_mm >= d.u0_mm + d.bin_count * d.bin_mm;
+}
+
+void complement_ideal(ProfileData& d) {
+  for (IdealBox& b : d.ideal) b.level = -b.level;
+  d.ideal.push_back({d.u0_mm, d.u0_mm + d.bin_count * d.bin_mm, 1.0});
 }
 
 }  // namespace tactres

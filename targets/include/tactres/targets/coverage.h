@@ -4,6 +4,7 @@
 // quads), so it must be exact and cheap for small windows.
 
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "tactres/targets/geometry.h"
@@ -50,6 +51,25 @@ class ArtworkIndex {
   std::vector<int> cell_begin_;  // CSR: shapes of cell c are items_[cell_begin_[c] .. [c+1])
   std::vector<int> items_;
   std::vector<RectMm> bounds_;
+};
+
+// Shapes with their index, owned together: the ideal pattern a profile is
+// compared with (the layout's artwork in layout mode; one chart pattern and
+// its detected neighbours in chart mode). Not copyable: the index refers to
+// the shapes by position.
+class IndexedArtwork {
+ public:
+  explicit IndexedArtwork(std::vector<ArtworkShape> shapes, double cell_mm = 0.0)
+      : shapes_(std::move(shapes)), index_(shapes_, cell_mm) {}
+  IndexedArtwork(const IndexedArtwork&) = delete;
+  IndexedArtwork& operator=(const IndexedArtwork&) = delete;
+
+  const std::vector<ArtworkShape>& shapes() const { return shapes_; }
+  const ArtworkIndex& index() const { return index_; }
+
+ private:
+  std::vector<ArtworkShape> shapes_;
+  ArtworkIndex index_;
 };
 
 }  // namespace tactres

@@ -11,11 +11,12 @@
 #include <vector>
 
 #include "tactres/camera/camera_model.h"
+#include "tactres/camera/plane_map.h"
 #include "tactres/targets/geometry.h"
 
 namespace tactres {
 
-class TargetView {
+class TargetView final : public PlaneToImage {
  public:
   // rt_camera_from_target: mrcal rt convention (Rodrigues r, then t in mm).
   TargetView(const CameraModel& camera, const std::array<double, 6>& rt_camera_from_target);
@@ -25,7 +26,7 @@ class TargetView {
 
   Vec3 to_camera(Vec2 target_mm) const;
   // Pixel of a target point; nullopt if behind the camera or not projectable.
-  std::optional<Vec2> project(Vec2 target_mm) const;
+  std::optional<Vec2> project(Vec2 target_mm) const override;
   // Pixel and the 2x2 Jacobian d(px)/d(target mm), row-major.
   std::optional<std::pair<Vec2, std::array<double, 4>>> project_with_jacobian(Vec2 target_mm) const;
 
@@ -33,9 +34,10 @@ class TargetView {
   // the ray misses the plane (parallel or behind).
   std::vector<std::optional<Vec2>> target_from_pixels(std::span<const Vec2> px) const;
 
-  // Image scale at a target point along target x (across vertical bars) or
-  // y (across horizontal bars), in pixels per mm; 0 if not projectable.
-  double px_per_mm(Vec2 target_mm, bool along_x) const;
+  // Image scale at a target point across bars of the given orientation
+  // (along target x for vertical bars, along y for horizontal bars), in
+  // pixels per mm; 0 if not projectable.
+  double px_per_mm_across(Vec2 target_mm, BarOrientation bars) const override;
   // The camera's sampling limit at a target point for bars resolving detail
   // along y (horizontal bars) and along x (vertical bars): 0.5 cycles/px.
   struct Nyquist {

@@ -26,8 +26,6 @@
 //   out_of_view; m(f) is m(f) whether or not the chart is anchored.
 // - Grading and the limits are layout mode's own code (element_grading.h).
 
-#include <nlohmann/json_fwd.hpp>
-
 #include "tactres/locate/chart_detect.h"
 #include "tactres/camera/image_io.h"
 #include "tactres/measure/measure.h"
@@ -46,8 +44,5 @@ struct ChartMeasurement {
 };
 
 ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptions& options);
-
-// The "chart" block of the measurement JSON: mode, anchor, polarity, counts.
-nlohmann::json chart_to_json(const ChartDetection& d);
 
 }  // namespace tactres

@@ -1,9 +1,9 @@
 #pragma once
 // Grading one element's profile, and deciding the limits from the graded
 // elements: the single place where a sampled strip becomes a status and
-// m(f) (docs/CONVENTIONS.md, "Element statuses"), shared by layout mode
-// (measure.cpp) and chart mode (chart_measure.cpp), so that both grade by
-// the same rules.
+// m(f) (docs/CONVENTIONS.md, "Element statuses"). The element pipeline
+// (element_pipeline.h) calls it for layout and chart mode alike, so that
+// both grade by the same rules.
 //
 // grade_element() contract:
 // - In: `r` with group, element, orientation, lp_per_mm and px_per_bar set;
@@ -39,7 +39,8 @@
 #include <functional>
 #include <utility>
 
-#include "tactres/measure/measure.h"
+#include "tactres/measure/measurement.h"
+#include "tactres/profiles/profile_sampler.h"
 
 namespace tactres {
 
@@ -49,12 +50,15 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
                      const MeasureOptions& options, std::pair<double, double>& warm_lsf,
                      const ProfilePrepare& prepare = {}, bool model_mismatch = false);
 
-// The limits per orientation under `criterion`, from M.elements (a status
-// other than ok counts as unresolved), into M.horizontal / M.vertical, and
-// each element's `resolved`. With `skip_out_of_view`, elements whose status
-// is out_of_view take no part in the limits (chart mode: a photograph
-// frames some groups and cuts others); otherwise they count as unresolved
-// (layout mode: the whole target must be framed).
-void decide_limits(Measurement& M, const Criterion& criterion, bool skip_out_of_view);
+// The limits per orientation under `criterion`, from M.elements, into
+// M.horizontal / M.vertical, and each element's `resolved`. An ok element
+// counts by the criterion; an unmeasured one (is_unmeasured) is skipped by
+// the chain and bridged when both neighbours are resolved (criterion.h);
+// any other status counts as unresolved. In a chart photograph
+// (`chart_photograph`), out_of_view is unmeasured: a photograph frames some
+// groups and cuts others. Layout mode, which frames the whole target,
+// counts it as unresolved instead.
+bool is_unmeasured(ElementStatus s, bool chart_photograph);
+void decide_limits(Measurement& M, const Criterion& criterion, bool chart_photograph);
 
 }  // namespace tactres

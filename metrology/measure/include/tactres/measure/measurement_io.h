@@ -12,7 +12,8 @@
 #include <opencv2/core/mat.hpp>
 
 #include "tactres/camera/image_io.h"
-#include "tactres/measure/measure.h"
+#include "tactres/locate/chart_detect.h"
+#include "tactres/measure/measurement.h"
 
 namespace tactres {
 
@@ -26,9 +27,13 @@ struct MeasurementContext {
   const LoadedImage* loaded = nullptr;
   const MeasureOptions* options = nullptr;
   double decode_seconds = 0;
+  const ChartDetection* chart = nullptr;  // chart mode: written as the "chart" block
 };
 
 nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContext& ctx);
+
+// The "chart" block of the measurement JSON: mode, anchor, polarity, counts.
+nlohmann::json chart_to_json(const ChartDetection& d);
 
 // CSV columns (stable, documented in docs/FORMATS.md):
 // image,design,group,element,orientation,lp_per_mm,px_per_bar,m,m_sigma,status,resolved

@@ -30,7 +30,7 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "tactres/measure/measure.h"
+#include "tactres/measure/measurement.h"
 #include "tactres/camera/target_view.h"
 #include "tactres/camera/transfer_curve.h"
 #include "tactres/targets/coverage.h"
@@ -40,7 +40,7 @@ namespace tactres {
 struct PatchScene {
   const TargetView& view;
   const TargetLayout& layout;
-  const ArtworkIndex& index;
+  const IndexedArtwork& artwork;
   double clip_level = 0;     // integer images clip at 1.0; 0 = float, no clip
   bool have_camera = false;  // for the advice in a mismatch message
 };

@@ -5,6 +5,10 @@
 // An element is resolved when m(f) >= threshold and m(f) is significantly
 // above zero: m - z * m_sigma > 0. The discrete limit of an orientation is
 // the finest element such that it and every coarser element are resolved.
+// An element that was not measured (its fit failed, it is clipped, damaged,
+// or out of a chart photograph's view) says nothing either way: the chain
+// skips it, and continues across it when the measured elements on both
+// sides are resolved; the limit lists such bridged elements.
 // The interpolated limit is where m crosses the threshold between the last
 // resolved element and the next one, interpolating ln(m) linearly in f^2
 // (exact for a Gaussian MTF, ln m = -2 pi^2 sigma^2 f^2).
@@ -33,6 +37,7 @@ struct MPoint {
   double m = 0.0;
   double m_sigma = 0.0;   // 0 for exact truth
   bool usable = true;     // false: graded status other than ok (never resolved)
+  bool unmeasured = false;  // not measured at all: skipped by the chain (implies !usable)
 };
 
 struct Limit {
@@ -44,6 +49,10 @@ struct Limit {
   std::optional<double> interpolated_lp_per_mm;
   std::optional<double> uncertainty_lp_per_mm;  // 1-sigma, propagated from m_sigma
   bool beyond_finest = false;  // every element resolved: the limit is above the range
+  struct Bridged {
+    int group = 0, element = 0;
+  };
+  std::vector<Bridged> bridged;  // unmeasured elements the discrete limit crossed, coarse to fine
 };
 
 bool is_resolved(const MPoint& p, const Criterion& c);
@@ -62,7 +71,8 @@ struct Limits {
 Limits find_limits(const std::vector<OrientedPoint>& points, const Criterion& c);
 
 // {"resolved_any", "group", "element", "lp_per_mm", "interpolated_lp_per_mm",
-//  "uncertainty_lp_per_mm", "beyond_finest"}; absent values are null, never NaN.
+//  "uncertainty_lp_per_mm", "beyond_finest", "bridged": [{"group", "element"}]};
+// absent values are null, never NaN.
 nlohmann::json limit_to_json(const Limit& limit);
 
 }  // namespace tactres

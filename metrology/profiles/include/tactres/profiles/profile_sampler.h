@@ -3,7 +3,8 @@
 //
 // A strip is a rectangle in the target plane: centre c, across-axis u
 // (x or y) and along-axis v. Every pixel whose centre maps into the strip
-// (through the pose and the lens model, never through an undistorted copy)
+// (through the plane's map to the image, camera/plane_map.h: the pose and
+// the lens model in layout mode, never through an undistorted copy)
 // contributes its value at its own u: pixels are binned by u at a fraction
 // of a pixel, which averages along the bars and oversamples the profile the
 // way a slanted edge does. The ideal pattern S(u) of every artwork shape in
@@ -14,7 +15,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include "tactres/profiles/profile_fit.h"
-#include "tactres/camera/target_view.h"
+#include "tactres/camera/plane_map.h"
 #include "tactres/targets/coverage.h"
 #include "tactres/targets/layout.h"
 
@@ -29,7 +30,7 @@ struct ProfileSamplingOptions {
 
 struct Strip {
   Vec2 center_mm;
-  bool across_x = true;       // u along target x (vertical bars) or y (horizontal bars)
+  BarOrientation bars = BarOrientation::vertical_bars;  // u runs across them: along x for vertical bars
   double half_u_mm = 0;       // fit window half width
   double half_v_mm = 0;       // along-bar half length
   double extend_u_mm = 0;     // extra ideal pattern beyond the window
@@ -48,12 +49,20 @@ struct SampledProfile {
 };
 
 // `clip_level` <= 0 disables clipping detection (float images).
-SampledProfile sample_strip(const cv::Mat& luminance, const TargetView& view,
-                            const TargetLayout& layout, const ArtworkIndex& artwork, const Strip& strip,
-                            const ProfileSamplingOptions& options, double clip_level);
+SampledProfile sample_strip(const cv::Mat& luminance, const PlaneToImage& plane, const IndexedArtwork& artwork,
+                            const Strip& strip, const ProfileSamplingOptions& options, double clip_level);
+
+// Light bars on a dark ground (a negative chart): the ideal becomes the
+// complement, 1 - S(u), so the model is the same as for dark bars. The
+// constant is a box over exactly the profile's bins: the model evaluates
+// the pattern's spectrum on that (periodic) grid, where such a box is a
+// pure constant, and a wider one would not be 1.
+void complement_ideal(ProfileData& d);
+// Whether `b` is that constant box (moving or scaling the pattern leaves it).
+bool is_complement_box(const ProfileData& d, const IdealBox& b);
 
 // The strip of an element (bars across u) and of the reference patch.
 Strip element_strip(const ElementLayout& e, const ProfileSamplingOptions& options);
-Strip patch_strip(const TargetLayout& layout, bool across_x);
+Strip patch_strip(const TargetLayout& layout, BarOrientation bars);
 
 }  // namespace tactres

@@ -1,0 +1,72 @@
+#pragma once
+// The one element pipeline that layout mode (measure.cpp) and chart mode
+// (chart_measure.cpp) both feed. Each mode only says, per element, what it
+// is and where: an ElementJob. The pipeline samples, fits, grades and
+// orders the elements the same way for both (grading rules:
+// element_grading.h, docs/CONVENTIONS.md "Element statuses").
+//
+// An ElementJob holds:
+// - `element`: group, element, orientation, lp_per_mm and px_per_bar set;
+// - one or more placements, each a map from the element's plane to pixels
+//   (a TargetView through pose and lens, or a chart pattern's own frame),
+//   the ideal artwork of that plane (the element's bars and its
+//   neighbours) and the strip across the bars. The first placement is the
+//   preferred one; a later one replaces it only when the profile model
+//   fits it better (chart mode: the detected centre when the correlation
+//   centring moved it);
+// - how to sample, whether the ideal is complemented (light bars on a dark
+//   ground: 1 - S(u)), and an optional `prepare` step before the final fit.
+//
+// Lifetime: the planes and artworks a placement points to must outlive the
+// calls below.
+
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "tactres/camera/plane_map.h"
+#include "tactres/measure/element_grading.h"
+#include "tactres/measure/measurement.h"
+#include "tactres/profiles/profile_sampler.h"
+#include "tactres/targets/coverage.h"
+
+namespace tactres {
+
+struct ElementPlacement {
+  const PlaneToImage* plane = nullptr;
+  const IndexedArtwork* artwork = nullptr;
+  Strip strip;
+};
+
+struct ElementJob {
+  ElementResult element;
+  std::vector<ElementPlacement> placements;  // at least one
+  ProfileSamplingOptions sampling;
+  bool complement_ideal = false;
+  ProfilePrepare prepare;
+};
+
+// One placement's profile: the strip sampled through its plane, the ideal
+// from its artwork (complemented when `complement_ideal`).
+SampledProfile sample_placement(const cv::Mat& luminance, const ElementPlacement& placement,
+                                const ProfileSamplingOptions& sampling, bool complement_ideal, double clip_level);
+
+// Every placement of every job: result[j][k] is job j's placement k.
+std::vector<std::vector<SampledProfile>> sample_jobs(const cv::Mat& luminance, const std::vector<ElementJob>& jobs,
+                                                     double clip_level);
+
+struct GradingContext {
+  const ReferenceResult& reference;  // signature and the level step per orientation
+  const MeasureOptions& options;
+  bool model_mismatch = false;       // a global mismatch (wrong encoding): no element is called aliased
+};
+
+// Grades every job from its sampled placements (sample_jobs) into
+// `elements`, in job order, warm-starting each orientation's fit from the
+// previous good one (jobs run coarse to fine). An orientation whose level
+// step is not usable is graded low_signal with a note. Returns the seconds
+// spent fitting.
+double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
+                  const GradingContext& context, std::vector<ElementResult>& elements);
+
+}  // namespace tactres

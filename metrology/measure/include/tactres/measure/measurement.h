@@ -1,0 +1,117 @@
+#pragma once
+// What a measurement of one capture is (layout mode, measure.h, and chart
+// mode, chart_measure.h, fill the same types): its options, each element's
+// graded result, the level step m is scaled by, and the limits.
+//
+// Every failure is data: an unusable capture has usable = false and a
+// problem a user can act on; an element that cannot be measured has a
+// graded status and is never called resolved. No field is ever NaN.
+
+#include <array>
+#include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tactres/camera/transfer_curve.h"
+#include "tactres/locate/fiducials.h"
+#include "tactres/locate/pose.h"
+#include "tactres/profiles/criterion.h"
+#include "tactres/profiles/profile_fit.h"
+#include "tactres/profiles/profile_sampler.h"
+#include "tactres/targets/layout.h"
+
+namespace tactres {
+
+enum class ElementStatus {
+  ok,                    // fitted; resolved or not by the criterion
+  low_signal,            // the fit cannot pin m down (m_sigma too large)
+  clipped,               // saturated or black pixels in the profile
+  aliased,               // the data do not show the expected bars (wrong period or count)
+  below_sampling_limit,  // too few pixels per bar to measure
+  out_of_view,           // the element's strip is not fully inside the image
+  fit_failed,            // the solver failed or the fit is degenerate
+};
+const char* to_string(ElementStatus s);
+
+enum class Preset { fast, balanced, precise };
+const char* to_string(Preset p);
+Preset preset_from_string(const std::string& s);  // throws std::invalid_argument
+
+struct MeasureOptions {
+  Preset preset = Preset::balanced;
+  ProfileSamplingOptions sampling;
+  bool fit_psf_shape = true;        // fit beta (PSF shape); false: Gaussian
+  int pose_boundary_points = 48;    // disc outline points in the pose model
+  double max_bins_per_bar = 10;     // coarse elements: bins no finer than w / this
+  Criterion criterion;
+  double min_px_per_bar = 1.5;      // below: below_sampling_limit
+  double aliasing_chi2 = 16;        // reduced chi^2 above which a fine element is aliased
+  double max_m_sigma = 0.25;        // above: low_signal
+  double max_patch_chi2 = 50;       // above: the capture does not match the layout
+  double transfer_check_chi2 = 10;  // patch reduced chi^2 above which other transfer curves are tried
+  double poor_fit_chi2 = 25;        // an ok element above this gets a note (its sigma is already widened)
+  std::string signature = "auto";   // auto | albedo | shading
+
+  static MeasureOptions for_preset(Preset p);
+  void validate() const;  // throws std::invalid_argument
+};
+
+struct ElementResult {
+  int group = 0, element = 1;
+  BarOrientation orientation = BarOrientation::horizontal_bars;
+  double lp_per_mm = 0, px_per_bar = 0;
+  double m = 0, m_sigma = 0;  // 0 when the status is not ok
+  double beta = 0, chi2_reduced = 0;
+  ElementStatus status = ElementStatus::fit_failed;
+  bool resolved = false;
+  std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say
+  std::array<Vec2, 4> outline_px{};
+  bool outline_valid = false;
+};
+
+// The level step across bars of one orientation (the full bar-to-gap step
+// that m is measured against), from the reference patch in layout mode or
+// from the chart's coarse elements in chart mode.
+struct LevelStep {
+  double contrast = 0, contrast_sigma = 0;
+  double chi2_reduced = 0;  // of the fit that measured it; 0 if none
+  // Usable as a scale: it stands out of its own error and is not zero. A
+  // relief lit along one axis has none across the other.
+  bool usable() const { return std::abs(contrast) > 5 * contrast_sigma && std::abs(contrast) > 1e-4; }
+};
+
+struct ReferenceResult {
+  bool usable = false;
+  std::string problem;
+  Signature signature = Signature::albedo;
+  // Per orientation: across y for horizontal bars, across x for vertical
+  // bars (JSON: contrast_y / contrast_x).
+  LevelStep horizontal_bars, vertical_bars;
+  const LevelStep& step(BarOrientation o) const {
+    return o == BarOrientation::horizontal_bars ? horizontal_bars : vertical_bars;
+  }
+  LevelStep& step(BarOrientation o) { return o == BarOrientation::horizontal_bars ? horizontal_bars : vertical_bars; }
+  bool layout_mismatch = false;   // refused: the model cannot describe the patch where the layout puts it
+  std::vector<Vec2> outline_px;   // corners of the two patch strips in the image
+};
+
+struct Measurement {
+  bool usable = false;
+  std::string problem;  // why not usable, and what to do
+  int image_width = 0, image_height = 0;
+  std::string camera_source;       // the model file, or "pinhole fitted from fiducials"
+  bool distortion_corrected = false;
+  FiducialSearchResult fiducials;
+  PoseResult pose;
+  ReferenceResult reference;
+  TransferDecision transfer;    // the curve the capture was measured with, and why
+  TransferCheck transfer_check; // what the reference patch said about that curve
+  std::vector<std::string> warnings;  // for people: what to check although the capture was measured
+  std::vector<ElementResult> elements;
+  Limit horizontal, vertical;
+  double nyquist_h_lp_per_mm = 0, nyquist_v_lp_per_mm = 0;
+  std::vector<std::pair<std::string, double>> stage_seconds;
+};
+
+}  // namespace tactres

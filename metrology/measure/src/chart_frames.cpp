@@ -1,0 +1,216 @@
+#include "chart_frames.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/core.hpp>
+
+namespace tactres::chart {
+
+namespace {
+
+Vec2 perp(Vec2 d) { return {-d.y, d.x}; }
+
+// The element that pattern `r` is: three bars of width w, 5 w long, about
+// the plane's origin.
+ElementLayout local_element(const PatternRef& r) {
+  const double w = r.bar_width_mm();
+  ElementLayout e;
+  e.group = r.group;
+  e.element = r.element;
+  e.lp_per_mm = r.lp_per_mm;
+  e.bar_width_mm = w;
+  e.orientation = r.orientation;
+  for (int i = 0; i < 3; ++i) {
+    const double c = (i - 1) * 2 * w;
+    e.bars_mm[i] = r.orientation == BarOrientation::horizontal_bars ? RectMm{-2.5 * w, c - 0.5 * w, 2.5 * w, c + 0.5 * w}
+                                                                     : RectMm{c - 0.5 * w, -2.5 * w, c + 0.5 * w, 2.5 * w};
+  }
+  return e;
+}
+
+// The ideal artwork of pattern `r`'s plane: its own bars, and the bars of
+// every detected pattern near it (approximated as axis-aligned in the
+// plane; they are neighbours, not the measured bars).
+std::vector<ArtworkShape> local_artwork(const ChartDetection& D, const PatternRef& r, const ElementLayout& e,
+                                        const PatternFrame& f) {
+  std::vector<ArtworkShape> shapes;
+  for (const RectMm& bar : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, bar, {}, 0, {}});
+  const double w = e.bar_width_mm;
+  const RectMm own = e.extent_mm().inflated(0.25 * w);
+  const BarPattern& self = D.patterns[r.pattern];
+  for (size_t k = 0; k < D.patterns.size(); ++k) {
+    if (static_cast<int>(k) == r.pattern) continue;
+    const BarPattern& q = D.patterns[k];
+    if (norm(q.center_px - self.center_px) > 12 * self.period_px + 3 * q.bar_length_px) continue;
+    const Vec2 n = perp(q.bar_dir);
+    const double qw = 0.5 * q.period_px / f.px_per_mm, ql = 5 * qw;
+    const bool along_plane_x = std::abs(dot(q.bar_dir, f.x_dir)) > std::sqrt(0.5);
+    for (int i = -1; i <= 1; ++i) {
+      const Vec2 c = f.to_plane(q.center_px + (i * q.period_px) * n);
+      const RectMm b = along_plane_x ? RectMm{c.x - 0.5 * ql, c.y - 0.5 * qw, c.x + 0.5 * ql, c.y + 0.5 * qw}
+                                     : RectMm{c.x - 0.5 * qw, c.y - 0.5 * ql, c.x + 0.5 * qw, c.y + 0.5 * ql};
+      if (b.overlap_area_mm2(own) > 0) continue;  // a mis-detection on top of ours: not modelled
+      shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
+    }
+  }
+  return shapes;
+}
+
+// Shift (mm, along u) of the pattern that best matches the data: the mean
+// level in narrow windows at the bar centres against that at the gap
+// centres, on the detrended profile. Blur is symmetric, so it does not move
+// the optimum; the scale is left to the profile fit (fit_scale), because
+// any such template is biased in scale by the blur of a finite pattern.
+double refine_shift(const ProfileData& d, double w, bool light) {
+  double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0;
+  for (int b = d.fit_begin; b < d.fit_end; ++b)
+    if (d.count[b] > 0) {
+      const double u = d.u_mean_mm[b], v = d.value[b];
+      s0 += 1, s1 += u, s2 += u * u, t0 += v, t1 += u * v;
+    }
+  const double det = s0 * s2 - s1 * s1;
+  if (s0 < 8 || !(std::abs(det) > 0)) return 0;
+  const double slope = (s0 * t1 - s1 * t0) / det, icpt = (t0 - slope * s1) / s0;
+  auto score = [&](double shift) {
+    double bar = 0, gap = 0;
+    int nb = 0, ng = 0;
+    for (int b = d.fit_begin; b < d.fit_end; ++b) {
+      if (d.count[b] == 0) continue;
+      const double u = d.u_mean_mm[b] - shift;
+      const double r = d.value[b] - (icpt + slope * d.u_mean_mm[b]);
+      for (int k = -3; k <= 3; ++k) {
+        if (std::abs(u - k * w) >= 0.25 * w) continue;
+        if (k % 2 == 0) bar += r, ++nb;
+        else gap += r, ++ng;
+      }
+    }
+    if (nb == 0 || ng == 0) return -1e300;
+    const double c = bar / nb - gap / ng;
+    return light ? c : -c;
+  };
+  double best_shift = 0, best = -1e300;
+  const double h = 0.05 * w;
+  for (int i = -12; i <= 12; ++i) {
+    const double v = score(i * h);
+    if (v > best) best = v, best_shift = i * h;
+  }
+  const double fm = score(best_shift - h), fp = score(best_shift + h), den = fm - 2 * best + fp;
+  if (den < 0) best_shift += h * std::clamp(0.5 * (fm - fp) / den, -0.5, 0.5);
+  return best_shift;
+}
+
+// The profile's ideal pattern stretched by `scale` about the pattern centre
+// (the complement's constant stays as it is).
+ProfileData scaled(const ProfileData& d, double scale) {
+  ProfileData out = d;
+  for (IdealBox& b : out.ideal)
+    if (!is_complement_box(d, b)) b.u0_mm *= scale, b.u1_mm *= scale;
+  return out;
+}
+
+// The ideal pattern moved by `shift_mm` along u (the complement's constant
+// stays).
+ProfileData shifted(const ProfileData& d, double shift_mm) {
+  ProfileData out = d;
+  for (IdealBox& b : out.ideal)
+    if (!is_complement_box(d, b)) b.u0_mm += shift_mm, b.u1_mm += shift_mm;
+  return out;
+}
+
+}  // namespace
+
+PatternFrame frame_of(const BarPattern& p, BarOrientation o, double lp_per_mm) {
+  return {p.center_px, o == BarOrientation::horizontal_bars ? p.bar_dir : perp(p.bar_dir), p.period_px * lp_per_mm};
+}
+
+ElementPlacement PlacementStore::place(const PatternRef& r, const PatternFrame& f, const ProfileSamplingOptions& so) {
+  const ElementLayout e = local_element(r);
+  frames_.push_back(f);
+  artworks_.emplace_back(local_artwork(D_, r, e, f), 0.0);
+  return {&frames_.back(), &artworks_.back(), element_strip(e, so)};
+}
+
+SampledProfile PlacementStore::sample(const PatternRef& r, const PatternFrame& f,
+                                      const ProfileSamplingOptions& so) const {
+  const ElementLayout e = local_element(r);
+  const IndexedArtwork artwork(local_artwork(D_, r, e, f), 0.0);
+  return sample_placement(lum_, {&f, &artwork, element_strip(e, so)}, so, D_.light_bars, clip_);
+}
+
+PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const ProfileSamplingOptions& so) const {
+  // A predicted pattern is placed by its column, more precisely than its
+  // faint bars could place it.
+  if (D_.patterns[r.pattern].predicted) return f;
+  const SampledProfile p = sample(r, f, so);
+  if (!p.in_view) return f;
+  const double shift_mm = refine_shift(p.data, r.bar_width_mm(), D_.light_bars);
+  const Vec2 u_dir = r.orientation == BarOrientation::vertical_bars ? f.x_dir : f.y_dir();
+  f.center_px = f.center_px + (shift_mm * f.px_per_mm) * u_dir;
+  return f;
+}
+
+// The shift the profile model itself prefers: the vertex of chi^2 over
+// three shifted ideals, twice, with the step shrinking. The correlation
+// centring (refine_shift) gets within a tenth of a bar or so; at sharp
+// edges and near the limit that residue would still read as blur.
+ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm) {
+  ProfileData best = d;
+  double h = 0.1 * w_mm;
+  for (int iter = 0; iter < 2; ++iter, h /= 3) {
+    double chi[3];
+    for (int i = 0; i < 3; ++i) {
+      const ProfileFit f = fit_profile(shifted(best, (i - 1) * h), fo);
+      if (!f.usable) return best;
+      chi[i] = f.chi2_reduced;
+    }
+    const double den = chi[0] - 2 * chi[1] + chi[2];
+    // No curvature worth the name: the data do not place the pattern.
+    if (!(den > 1e-3 * chi[1])) return best;
+    best = shifted(best, h * std::clamp(0.5 * (chi[0] - chi[2]) / den, -1.5, 1.5));
+  }
+  return best;
+}
+
+// The vertex of chi^2 over three stretched ideals. Only well-sampled,
+// well-modulated patterns pin the scale down.
+std::optional<double> fit_scale(const ProfileData& d, const ProfileFitOptions& fo) {
+  constexpr double h = 0.03;
+  double chi[3];
+  for (int i = 0; i < 3; ++i) {
+    const ProfileFit f = fit_profile(scaled(d, 1 + (i - 1) * h), fo);
+    if (!f.usable) return std::nullopt;
+    chi[i] = f.chi2_reduced;
+  }
+  const double den = chi[0] - 2 * chi[1] + chi[2];
+  if (!(den > 0)) return std::nullopt;
+  const double x = 0.5 * (chi[0] - chi[2]) / den;
+  if (std::abs(x) > 2) return std::nullopt;
+  return 1 + x * h;
+}
+
+double ScaleField::at(Vec2 p) const { return std::exp(c[0] + c[1] * p.x + c[2] * p.y); }
+
+ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples) {
+  ScaleField f;
+  if (samples.empty()) return f;
+  double mean = 0;
+  for (const auto& s : samples) mean += std::log(s.second);
+  mean /= samples.size();
+  f.c[0] = mean;
+  f.valid = true;
+  if (samples.size() < 4) return f;  // too few for a gradient: constant
+  cv::Mat A(static_cast<int>(samples.size()), 3, CV_64F), b(static_cast<int>(samples.size()), 1, CV_64F);
+  for (size_t i = 0; i < samples.size(); ++i) {
+    A.at<double>(int(i), 0) = 1;
+    A.at<double>(int(i), 1) = samples[i].first.x;
+    A.at<double>(int(i), 2) = samples[i].first.y;
+    b.at<double>(int(i)) = std::log(samples[i].second);
+  }
+  cv::Mat x;
+  if (!cv::solve(A, b, x, cv::DECOMP_SVD)) return f;
+  for (int k = 0; k < 3; ++k) f.c[k] = x.at<double>(k);
+  return f;
+}
+
+}  // namespace tactres::chart

@@ -1,0 +1,83 @@
+#pragma once
+// Chart mode's geometry (private to chart_measure.cpp): each detected bar
+// pattern gets its own frame, a PatternFrame (camera/plane_map.h) whose
+// plane is the pattern's, in mm of its element; the ideal artwork of that
+// plane holds the pattern's own bars and the detected patterns near it. The
+// frame is refined on the profile itself (shift and scale across the bars),
+// because the profile model has no shift: a misplaced pattern reads as blur.
+
+#include <deque>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "tactres/camera/plane_map.h"
+#include "tactres/locate/chart_detect.h"
+#include "tactres/measure/element_pipeline.h"
+#include "tactres/profiles/profile_fit.h"
+#include "tactres/profiles/profile_sampler.h"
+#include "tactres/targets/coverage.h"
+#include "tactres/targets/layout.h"
+
+namespace tactres::chart {
+
+// One detected pattern measured as one orientation of one element.
+struct PatternRef {
+  int pattern;
+  BarOrientation orientation;
+  int group, element;
+  double lp_per_mm;
+  double bar_width_mm() const { return 0.5 / lp_per_mm; }
+};
+
+// The frame of pattern `p` measured as orientation `o`: plane x along the
+// bars of a horizontal-bar pattern, across those of a vertical-bar one.
+PatternFrame frame_of(const BarPattern& p, BarOrientation o, double lp_per_mm);
+
+// Owns the frames and artworks that the element pipeline's placements point
+// to; a deque never moves what it holds.
+class PlacementStore {
+ public:
+  PlacementStore(const cv::Mat& luminance, const ChartDetection& detection, double clip_level)
+      : lum_(luminance), D_(detection), clip_(clip_level) {}
+
+  // A placement of `r` in frame `f`, kept for the store's lifetime.
+  ElementPlacement place(const PatternRef& r, const PatternFrame& f, const ProfileSamplingOptions& so);
+  // The strip of `r` seen through frame `f` (the ideal complemented for a
+  // negative chart), without keeping the placement.
+  SampledProfile sample(const PatternRef& r, const PatternFrame& f, const ProfileSamplingOptions& so) const;
+  // The frame moved onto the pattern across the bars (by correlation with
+  // the ideal pattern); a predicted pattern keeps the frame of its column.
+  PatternFrame recentre(const PatternRef& r, PatternFrame f, const ProfileSamplingOptions& so) const;
+
+ private:
+  const cv::Mat& lum_;
+  const ChartDetection& D_;
+  double clip_;
+  std::deque<PatternFrame> frames_;
+  std::deque<IndexedArtwork> artworks_;
+};
+
+// The shift the profile model itself prefers, to a small fraction of a bar
+// of width `w_mm`; returns the profile with its ideal moved.
+ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm);
+
+// The scale of the pattern (relative to the frame's) that the profile model
+// prefers; nullopt unless the pattern pins it down.
+std::optional<double> fit_scale(const ProfileData& d, const ProfileFitOptions& fo);
+
+// Image scale across the bars over the chart, per orientation:
+// ln(px/mm) = c0 + c1 x + c2 y (pixels), fitted to the patterns whose scale
+// the profile model pinned down. A plane seen in mild perspective has a
+// smoothly varying scale, and the coarse patterns fix it far better than a
+// fine pattern near the limit can fix its own.
+struct ScaleField {
+  bool valid = false;
+  double c[3] = {0, 0, 0};
+  double at(Vec2 p) const;
+};
+ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples);
+
+}  // namespace tactres::chart
