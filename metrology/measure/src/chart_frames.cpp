@@ -138,6 +138,24 @@ SampledProfile PlacementStore::sample(const PatternRef& r, const PatternFrame& f
   return sample_placement(lum_, {&f, &artwork, element_strip(e, so)}, so, D_.light_bars, clip_);
 }
 
+ProfileSamplingOptions PlacementStore::fitted_in_view(const PatternRef& r, const PatternFrame& f,
+                                                      ProfileSamplingOptions so) const {
+  const ElementLayout e = local_element(r);
+  const double w_max = lum_.cols - 1, h_max = lum_.rows - 1;
+  for (;;) {
+    const Strip s = element_strip(e, so);
+    const double u = s.half_u_mm, v = s.half_v_mm;
+    bool inside = true;
+    for (const Vec2 corner : {Vec2{-u, -v}, Vec2{u, -v}, Vec2{u, v}, Vec2{-u, v}}) {
+      const Vec2 plane = s.bars == BarOrientation::vertical_bars ? corner : Vec2{corner.y, corner.x};
+      const Vec2 q = *f.project(s.center_mm + plane);
+      inside = inside && q.x >= 0 && q.y >= 0 && q.x <= w_max && q.y <= h_max;
+    }
+    if (inside || so.margin_bar_widths <= 0.5) return so;
+    so.margin_bar_widths = std::max(0.5, so.margin_bar_widths - 0.25);
+  }
+}
+
 PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const ProfileSamplingOptions& so) const {
   // A predicted pattern is placed by its column, more precisely than its
   // faint bars could place it.

@@ -48,6 +48,11 @@ class PlacementStore {
   // The strip of `r` seen through frame `f` (the ideal complemented for a
   // negative chart), without keeping the placement.
   SampledProfile sample(const PatternRef& r, const PatternFrame& f, const ProfileSamplingOptions& so) const;
+  // `so` with the margin beyond the outer bars narrowed, in steps down to
+  // the least the profile model needs (half a bar), until the strip is in
+  // the image: a single element filling a microscope frame leaves no room
+  // for the usual margin.
+  ProfileSamplingOptions fitted_in_view(const PatternRef& r, const PatternFrame& f, ProfileSamplingOptions so) const;
   // The frame moved onto the pattern across the bars (by correlation with
   // the ideal pattern); a predicted pattern keeps the frame of its column.
   PatternFrame recentre(const PatternRef& r, PatternFrame f, const ProfileSamplingOptions& so) const;

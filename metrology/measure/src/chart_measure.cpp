@@ -35,8 +35,9 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
   std::vector<std::pair<Vec2, double>> scale_samples[2];  // [vertical bars]
   for (const PatternRef& r : refs) {
     const double px_per_bar = 0.5 * D.patterns[r.pattern].period_px;
-    const ProfileSamplingOptions so = sampling_for(mo, px_per_bar);
-    const PatternFrame f = store.recentre(r, chart::frame_of(D.patterns[r.pattern], r.orientation, r.lp_per_mm), so);
+    const PatternFrame detected = chart::frame_of(D.patterns[r.pattern], r.orientation, r.lp_per_mm);
+    const ProfileSamplingOptions so = store.fitted_in_view(r, detected, sampling_for(mo, px_per_bar));
+    const PatternFrame f = store.recentre(r, detected, so);
     frames.push_back(f);
     if (px_per_bar < 4) continue;
     const SampledProfile p = store.sample(r, f, so);
@@ -77,7 +78,7 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
     e.orientation = r.orientation;
     e.lp_per_mm = r.lp_per_mm;
     e.px_per_bar = r.bar_width_mm() * frames[i].px_per_mm;
-    job.sampling = sampling_for(mo, e.px_per_bar);
+    job.sampling = store.fitted_in_view(r, frames[i], sampling_for(mo, e.px_per_bar));
     job.complement_ideal = D.light_bars;
     const PatternFrame f = store.recentre(r, frames[i], job.sampling);
     e.px_per_bar = r.bar_width_mm() * f.px_per_mm;
