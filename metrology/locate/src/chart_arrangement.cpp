@@ -1,0 +1,313 @@
+// The standard arrangement of a USAF-1951 chart (chart_detect.h, "What the
+// arrangement can and cannot tell"): the steps between the elements found,
+// the group labels above the columns, and the elements a column predicts.
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "chart_detect_internal.h"
+#include "tactres/targets/glyphs.h"
+#include "tactres/targets/mil_std_chart.h"
+
+namespace tactres::locate_detail {
+
+namespace {
+
+// The arrangement's element positions: groups 0..3 of the generated chart
+// (two nested pairs), so that any step of up to 12 elements from an index
+// in 0..11 stays inside it. Index n = 6 g + e - 1; centre of the H triplet
+// and bar width, mm.
+struct ArrangementModel {
+  std::vector<Vec2> h_center_mm;
+  std::vector<double> bar_width_mm;
+};
+
+const ArrangementModel& arrangement_model() {
+  static const ArrangementModel model = [] {
+    MilStdChartOptions o;
+    o.first_group = 0;
+    o.last_group = 3;
+    const TargetLayout L = make_mil_std_chart(o);
+    ArrangementModel m;
+    m.h_center_mm.resize(24);
+    m.bar_width_mm.resize(24);
+    for (const ElementLayout& e : L.elements)
+      if (e.orientation == BarOrientation::horizontal_bars) {
+        const int n = 6 * e.group + e.element - 1;
+        m.h_center_mm[n] = e.extent_mm().center_mm();
+        m.bar_width_mm[n] = e.bar_width_mm;
+      }
+    return m;
+  }();
+  return model;
+}
+
+// A found element's own frame: chart x along H -> V (the H triplet is left
+// of the V triplet on the chart), chart y (down) perpendicular to it, sign
+// by handedness; unit = the element's bar width in px.
+struct ElementFrame {
+  Vec2 origin_px;  // centre of the H triplet
+  Vec2 ex;
+  double sign_y = 1;  // -1: mirrored
+  double bar_px = 1;
+  Vec2 to_chart(Vec2 q) const {  // px -> bar widths, relative to the origin
+    const Vec2 d = q - origin_px;
+    return (1.0 / bar_px) * Vec2{dot(d, ex), sign_y * dot(d, perp(ex))};
+  }
+  Vec2 to_image(Vec2 c) const { return origin_px + bar_px * (c.x * ex + (sign_y * c.y) * perp(ex)); }
+};
+
+ElementFrame frame_of(const ChartDetection& D, const ChartElement& e, double bar_px, bool mirrored) {
+  ElementFrame f;
+  f.origin_px = D.patterns[e.h].center_px;
+  const Vec2 d = D.patterns[e.v].center_px - f.origin_px;
+  f.ex = (1.0 / std::max(norm(d), 1e-9)) * d;
+  f.sign_y = mirrored ? -1 : 1;
+  f.bar_px = bar_px;
+  return f;
+}
+
+}  // namespace
+
+// Phase (index of relative index 0, modulo 12) and handedness: the
+// hypothesis under which the most steps between found elements (up to 12
+// indices apart) land where the arrangement puts them. Each element's bar
+// width comes from the series (field.bar_px), not from its binarised
+// period, which blur overstates.
+void recognise_arrangement(ChartDetection& D, const ScaleField& field) {
+  const ArrangementModel& M = arrangement_model();
+  auto& A = D.arrangement;
+  struct Hyp {
+    int phase;
+    bool mirrored;
+    int matched = 0, checked = 0;
+  };
+  std::vector<Hyp> hyps;
+  for (int p = 0; p < 12; ++p)
+    for (bool mirrored : {false, true}) {
+      Hyp h{p, mirrored};
+      for (size_t i = 0; i < D.elements.size(); ++i) {
+        const ChartElement& a = D.elements[i];
+        const ElementFrame f = frame_of(D, a, field.bar_px(D, a), mirrored);
+        const int na = a.relative_index + p, base = na - na % 12;
+        for (size_t j = 0; j < D.elements.size(); ++j) {
+          const ChartElement& b = D.elements[j];
+          const int dk = b.relative_index - a.relative_index;
+          if (dk < 1 || dk > 12) continue;
+          const int ma = na - base, mb = ma + dk;
+          const Vec2 want = (1.0 / M.bar_width_mm[ma]) * (M.h_center_mm[mb] - M.h_center_mm[ma]);
+          const Vec2 got = f.to_chart(D.patterns[b.h].center_px);
+          ++h.checked;
+          if (norm(got - want) <= 0.15 * norm(want) + 2.0) ++h.matched;
+        }
+      }
+      hyps.push_back(h);
+    }
+  std::sort(hyps.begin(), hyps.end(), [](const Hyp& a, const Hyp& b) { return a.matched > b.matched; });
+  const Hyp& best = hyps.front();
+  A.steps_checked = best.checked;
+  A.steps_matched = best.matched;
+  const int runner_up = hyps.size() > 1 ? hyps[1].matched : 0;
+  if (best.checked < 4 || best.matched < 4 || best.matched < 0.8 * best.checked) {
+    A.note = fmt::format("arrangement not recognised: {} of {} steps between the elements found fit the standard "
+                         "arrangement at best",
+                         best.matched, best.checked);
+    return;
+  }
+  if (best.matched - runner_up < 2) {
+    A.note = fmt::format("arrangement not recognised: the elements found fit it in more than one way ({} and {} "
+                         "of {} steps); too little of the chart is in view",
+                         best.matched, runner_up, best.checked);
+    return;
+  }
+  A.recognised = true;
+  A.phase = best.phase;
+  A.mirrored = best.mirrored;
+}
+
+namespace {
+
+// How well the label `text` (seven-segment glyphs, as the chart draws
+// them) explains the image in the box `box` (element bar widths, in frame
+// f): the residual sum of squares of value = a + b ink, and b. The ink is
+// the glyphs' pixel coverage blurred by a Gaussian, at the blur (0..4 px)
+// that fits best, so that a soft image is read as well as a sharp one.
+struct LabelFit {
+  double sse = 1e300, slope = 0, r2 = 0;
+  int n = 0;
+};
+
+LabelFit fit_label(const cv::Mat& img, const ElementFrame& f, const std::string& text, Vec2 origin, double height,
+                   const RectMm& box) {
+  std::vector<RectMm> rects;
+  const double w = 0.6 * height, t = 0.2 * height, gap = 0.3 * height;
+  double x = origin.x;
+  for (char c : text) {
+    append_glyph(c, {x, origin.y}, w, height, t, rects);
+    x += w + gap;
+  }
+  // The box's image bounds, with room for the blur.
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (Vec2 c : {Vec2{box.x0, box.y0}, Vec2{box.x1, box.y0}, Vec2{box.x0, box.y1}, Vec2{box.x1, box.y1}}) {
+    const Vec2 q = f.to_image(c);
+    x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+  }
+  LabelFit out;
+  if (x0 < 0 || y0 < 0 || x1 > img.cols - 1 || y1 > img.rows - 1) return out;  // not fully in view
+  constexpr int kPad = 12;
+  const int ix0 = static_cast<int>(std::floor(x0)) - kPad, iy0 = static_cast<int>(std::floor(y0)) - kPad;
+  const int nx = static_cast<int>(std::ceil(x1)) + kPad - ix0 + 1, ny = static_cast<int>(std::ceil(y1)) + kPad - iy0 + 1;
+  cv::Mat ink(ny, nx, CV_32F, cv::Scalar(0));
+  cv::Mat inside(ny, nx, CV_8U, cv::Scalar(0));
+  for (int r = 0; r < ny; ++r)
+    for (int c = 0; c < nx; ++c) {
+      const double px = ix0 + c, py = iy0 + r;
+      const Vec2 q0 = f.to_chart({px, py});
+      inside.at<unsigned char>(r, c) = q0.x >= box.x0 && q0.x <= box.x1 && q0.y >= box.y0 && q0.y <= box.y1;
+      double cover = 0;  // 3 x 3 samples a pixel
+      for (int sy = -1; sy <= 1; ++sy)
+        for (int sx = -1; sx <= 1; ++sx) {
+          const Vec2 q = f.to_chart({px + sx / 3.0, py + sy / 3.0});
+          for (const RectMm& rr : rects)
+            if (q.x >= rr.x0 && q.x < rr.x1 && q.y >= rr.y0 && q.y < rr.y1) {
+              cover += 1.0 / 9;
+              break;
+            }
+        }
+      ink.at<float>(r, c) = static_cast<float>(cover);
+    }
+  for (double sigma : {0.0, 1.0, 2.0, 3.0, 4.0}) {
+    cv::Mat blurred = ink;
+    if (sigma > 0) cv::GaussianBlur(ink, blurred, {0, 0}, sigma);
+    double s0 = 0, s1 = 0, s11 = 0, sv = 0, svv = 0, s1v = 0;
+    for (int r = 0; r < ny; ++r)
+      for (int c = 0; c < nx; ++c) {
+        if (!inside.at<unsigned char>(r, c)) continue;
+        const double k = blurred.at<float>(r, c), v = img.at<float>(iy0 + r, ix0 + c);
+        s0 += 1, s1 += k, s11 += k * k, sv += v, svv += v * v, s1v += k * v;
+      }
+    const double det = s0 * s11 - s1 * s1;
+    if (s0 < 20 || !(det > 1e-9 * s0 * s0)) continue;
+    const double b = (s0 * s1v - s1 * sv) / det, a = (sv - b * s1) / s0;
+    const double tss = svv - sv * sv / s0, sse = std::max(0.0, svv - a * sv - b * s1v);
+    if (sse < out.sse) {
+      out.sse = sse;
+      out.slope = b;
+      out.r2 = tss > 0 ? 1 - sse / tss : 0;
+      out.n = static_cast<int>(s0);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// The group number printed above the column that starts with element `e`
+// (index n modulo 12 = 1: even group's element 2, top of the left column;
+// 6: odd group's element 1, top of the right column): the candidate of the
+// known parity whose digits explain the image clearly best, or nullopt.
+std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D, const ChartElement& e, int n_mod12,
+                                    int parity_group, double bar_px) {
+  const ElementFrame f = frame_of(D, e, bar_px, D.arrangement.mirrored);
+  using namespace mil_std;
+  // In bar widths of element e, from its H-triplet centre: the block's
+  // top-left corner is (-(kHX + 2.5), -2.5); the pair's label stands 4 W
+  // above it, W bar widths of the even group's element 1, 2.5 W tall (the
+  // odd group's label half that).
+  const double W = n_mod12 == 1 ? std::exp2(1.0 / 6) : 2.0;
+  const double height = n_mod12 == 1 ? 2.5 * W : 1.25 * W;
+  const Vec2 origin{-(kHX + 2.5), -2.5 - 4 * W};
+  const RectMm box{origin.x - 0.1 * height, origin.y - 0.1 * height, origin.x + 2.5 * height,
+                   origin.y + 1.1 * height};
+  if (0.2 * height * bar_px < 1.5) return std::nullopt;  // strokes under 1.5 px: not legible
+  const double ink_sign = D.light_bars ? 1 : -1;
+  std::vector<std::pair<LabelFit, int>> fits;
+  for (int g = -10; g <= 12; ++g) {
+    if (((g - parity_group) % 2 + 2) % 2 != 0) continue;
+    const LabelFit lf = fit_label(img, f, std::to_string(g), origin, height, box);
+    if (lf.n == 0) return std::nullopt;
+    fits.push_back({lf, g});
+  }
+  std::sort(fits.begin(), fits.end(), [](const auto& a, const auto& b) { return a.first.sse < b.first.sse; });
+  const LabelFit& best = fits[0].first;
+  if (best.slope * ink_sign <= 0 || best.r2 < 0.5 || !(best.sse < 0.5 * fits[1].first.sse)) return std::nullopt;
+  return fits[0].second;
+}
+
+// See ChartDetection::predicted_elements.
+void predict_column_ends(ChartDetection& D) {
+  const double r = std::exp2(-1.0 / 6);
+  std::map<int, size_t> by_index;
+  for (size_t i = 0; i < D.elements.size(); ++i) by_index[D.elements[i].relative_index] = i;
+  std::vector<ChartElement> added;
+  const bool anchored = D.anchor != ChartAnchor::none;
+  for (const auto& [k, i] : by_index) {
+    if (by_index.count(k + 1) || !by_index.count(k - 1)) continue;
+    const ChartElement &e1 = D.elements[by_index[k - 1]], &e2 = D.elements[i];
+    if (anchored && e2.element == 6) continue;  // the group's column ends here
+    const Vec2 c1 = D.patterns[e1.h].center_px, c2 = D.patterns[e2.h].center_px;
+    const Vec2 d12 = c2 - c1;
+    if (!anchored) {
+      // One column: three in a row, the second step the first shrunk by r,
+      // in the same direction.
+      if (!by_index.count(k - 2)) continue;
+      const Vec2 c0 = D.patterns[D.elements[by_index[k - 2]].h].center_px;
+      if (norm(d12 - r * (c1 - c0)) > 0.1 * norm(d12)) continue;
+    } else {
+      // Two in a row are one column only when the element numbers say so
+      // (anchored): an even group's element 1 stands apart, at the lower
+      // right; elements 2..6, and an odd group's 1..6, are one column.
+      const bool even = ((e2.group % 2) + 2) % 2 == 0;
+      if (e1.group != e2.group || (even && e1.element == 1)) continue;
+      // And the step is a column step: about (5 + 2.5) bar widths of e1
+      // across its bars' length, i.e. along the H triplet's bars' normal.
+      const double bar = 0.5 * e1.period_px;
+      if (std::abs(norm(d12) / bar - (5 + mil_std::kColumnGap)) > 1.5) continue;
+    }
+    // Anchored: on to the group's element 6 (the finer ones are the
+    // measured ones' neighbours, so they are modelled too); unanchored, the
+    // column's end is unknown: one step.
+    const int steps = D.anchor != ChartAnchor::none ? 6 - e2.element : 1;
+    ChartElement prev = e2, before = e1;
+    for (int step = 0; step < steps; ++step) {
+      ChartElement next = prev;
+      next.relative_index = prev.relative_index + 1;
+      next.period_px = prev.period_px * r;
+      if (0.5 * next.period_px < 0.8) break;  // far below sampling: nothing to model or measure
+      if (by_index.count(next.relative_index)) break;  // found after all
+      const int n = D.largest_index + next.relative_index;
+      next.group = floor_div6(n);
+      next.element = n - 6 * next.group + 1;
+      for (int* which : {&next.h, &next.v}) {
+        const bool h = which == &next.h;
+        BarPattern p = D.patterns[h ? prev.h : prev.v];
+        const Vec2 c = p.center_px;
+        p.center_px = c + r * (c - D.patterns[h ? before.h : before.v].center_px);
+        p.period_px *= r;
+        p.bar_length_px *= r;
+        p.predicted = true;
+        for (Vec2& b : p.bar_centers_px) b = p.center_px + r * (b - c);
+        D.patterns.push_back(p);
+        *which = static_cast<int>(D.patterns.size()) - 1;
+      }
+      added.push_back(next);
+      before = prev;
+      prev = next;
+    }
+  }
+  D.predicted_elements = static_cast<int>(added.size());
+  for (const ChartElement& e : added) D.elements.push_back(e);
+  std::sort(D.elements.begin(), D.elements.end(),
+            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+}
+
+}  // namespace tactres::locate_detail

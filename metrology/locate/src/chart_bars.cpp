@@ -1,0 +1,216 @@
+// Steps 1-3 of detect_chart (chart_detect.h): bars found by binarising
+// against the local mean at a ladder of window sizes, three-bar patterns
+// made of them, and elements made of pairs of patterns.
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "chart_detect_internal.h"
+
+namespace tactres::locate_detail {
+
+namespace {
+
+struct Bar {
+  Vec2 c;
+  Vec2 dir;  // long axis, unit
+  double length = 0, width = 0;
+  double score = 0;  // closeness to an ideal filled 5:1 rectangle (lower is better)
+};
+
+// Noise level: the median absolute deviation of the difference between the
+// image and its 3x3 mean, scaled for Gaussian noise. Used to set the
+// binarisation margin so that noise alone makes no bars.
+double noise_sigma(const cv::Mat& img) {
+  cv::Mat smooth;
+  cv::blur(img, smooth, {3, 3});
+  cv::Mat diff = cv::abs(img - smooth);
+  std::vector<float> v;
+  for (int y = 1; y < diff.rows - 1; y += 2)
+    for (int x = 1; x < diff.cols - 1; x += 2) v.push_back(diff.at<float>(y, x));
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  // For white noise, img - mean3x3 has sd sigma * sqrt(8/9); MAD -> sd is 1.4826.
+  return 1.4826 * v[v.size() / 2] / std::sqrt(8.0 / 9.0);
+}
+
+// Bar candidates: components of `mask` shaped like a filled rectangle of
+// aspect 3..8.
+void collect_bars(const cv::Mat& mask, double min_width_px, std::vector<Bar>& out) {
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  std::vector<double> sx(n, 0), sy(n, 0), sxx(n, 0), sxy(n, 0), syy(n, 0);
+  std::vector<int> cnt(n, 0);
+  const long long max_area = static_cast<long long>(mask.total()) / 8;
+  std::vector<unsigned char> wanted(n, 0);
+  for (int i = 1; i < n; ++i) {
+    const int area = stats.at<int>(i, cv::CC_STAT_AREA);
+    wanted[i] = area >= 5 && area <= max_area;
+  }
+  for (int y = 0; y < labels.rows; ++y) {
+    const int* row = labels.ptr<int>(y);
+    for (int x = 0; x < labels.cols; ++x) {
+      const int l = row[x];
+      if (!l || !wanted[l]) continue;
+      sx[l] += x;
+      sy[l] += y;
+      sxx[l] += double(x) * x;
+      sxy[l] += double(x) * y;
+      syy[l] += double(y) * y;
+      ++cnt[l];
+    }
+  }
+  for (int i = 1; i < n; ++i) {
+    if (!wanted[i]) continue;
+    const double N = cnt[i];
+    const double mx = sx[i] / N, my = sy[i] / N;
+    const double cxx = sxx[i] / N - mx * mx, cxy = sxy[i] / N - mx * my, cyy = syy[i] / N - my * my;
+    const double tr = cxx + cyy, det = cxx * cyy - cxy * cxy;
+    const double disc = std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
+    const double l1 = 0.5 * tr + disc, l2 = std::max(0.5 * tr - disc, 1e-9);
+    // A filled a x b rectangle has variances a^2/12 and b^2/12; a pixel
+    // grid adds 1/12 per axis.
+    const double length = std::sqrt(12 * std::max(l1 - 1.0 / 12, 1e-9));
+    const double width = std::sqrt(12 * std::max(l2 - 1.0 / 12, 1e-9));
+    const double aspect = length / width;
+    const double fill = N / (length * width);
+    if (width < min_width_px || aspect < 3.0 || aspect > 8.0 || fill < 0.7 || fill > 1.3) continue;
+    const double angle = 0.5 * std::atan2(2 * cxy, cxx - cyy);
+    Bar b;
+    b.c = {mx, my};
+    b.dir = {std::cos(angle), std::sin(angle)};
+    b.length = length;
+    b.width = width;
+    b.score = std::abs(std::log(aspect / 5.0)) + std::abs(fill - 1.0);
+    out.push_back(b);
+  }
+}
+
+// The same bar found at several window sizes: keep the best-shaped one.
+std::vector<Bar> deduplicate(std::vector<Bar> bars) {
+  std::sort(bars.begin(), bars.end(), [](const Bar& a, const Bar& b) { return a.score < b.score; });
+  std::vector<Bar> kept;
+  for (const Bar& b : bars) {
+    bool dup = false;
+    for (const Bar& k : kept)
+      if (norm(k.c - b.c) < 0.6 * std::min(k.width, b.width) && std::abs(std::log(k.width / b.width)) < 0.4) {
+        dup = true;
+        break;
+      }
+    if (!dup) kept.push_back(b);
+  }
+  return kept;
+}
+
+bool similar(double a, double b, double tol) { return std::abs(std::log(a / b)) < tol; }
+
+// Three-bar patterns: each bar with the best-fitting bar of its size and
+// direction one period (about 2 bar widths) away on either side.
+std::vector<BarPattern> find_triplets(const std::vector<Bar>& bars, bool light) {
+  std::vector<BarPattern> out;
+  for (size_t m = 0; m < bars.size(); ++m) {
+    const Bar& B = bars[m];
+    const Vec2 n = perp(B.dir);
+    int best[2] = {-1, -1};
+    double best_cost[2] = {1e300, 1e300};
+    for (size_t k = 0; k < bars.size(); ++k) {
+      if (k == m) continue;
+      const Bar& A = bars[k];
+      const Vec2 d = A.c - B.c;
+      if (std::abs(d.x) > 3 * B.width + 2 || std::abs(d.y) > 3 * B.width + 2) continue;
+      if (!similar(A.width, B.width, 0.35) || !similar(A.length, B.length, 0.3)) continue;
+      if (std::abs(dot(A.dir, B.dir)) < std::cos(12 * M_PI / 180)) continue;
+      const double along = dot(d, B.dir), across = dot(d, n);
+      if (std::abs(along) > 0.25 * B.length) continue;
+      const double pitch = std::abs(across) / B.width;
+      if (pitch < 1.5 || pitch > 2.7) continue;
+      const int side = across > 0 ? 1 : 0;
+      const double cost = std::abs(pitch - 2) + std::abs(along) / B.length;
+      if (cost < best_cost[side]) {
+        best_cost[side] = cost;
+        best[side] = static_cast<int>(k);
+      }
+    }
+    if (best[0] < 0 || best[1] < 0) continue;
+    const Bar &A = bars[best[0]], &C = bars[best[1]];
+    const double a = dot(A.c - B.c, n), c = dot(C.c - B.c, n);
+    if (std::abs(a + c) > 0.2 * 0.5 * (c - a)) continue;  // the middle bar sits in the middle
+    BarPattern p;
+    p.center_px = (1.0 / 3.0) * (A.c + B.c + C.c);
+    p.bar_dir = B.dir;
+    p.period_px = 0.5 * (c - a);
+    p.bar_length_px = (A.length + B.length + C.length) / 3;
+    p.light_bars = light;
+    p.bar_centers_px = {A.c, B.c, C.c};
+    // A bar must not be wider than the period allows (two merged bars).
+    if (B.width > 0.8 * p.period_px) continue;
+    out.push_back(p);
+  }
+  return out;
+}
+
+}  // namespace
+
+PatternsFound find_patterns(const cv::Mat& img, double min_bar_px) {
+  const double sigma = noise_sigma(img);
+  const double mean_level = cv::mean(img)[0];
+  // Margin: noise must not make bars, nor the faint texture of a clean print.
+  const double margin = std::max(3.0 * sigma, 0.01 * std::abs(mean_level));
+
+  std::vector<Bar> dark, light;
+  const int max_window = std::max(7, std::min(img.cols, img.rows) / 2);
+  for (int k = 7; k <= max_window; k = 2 * k + 1) {
+    cv::Mat mean;
+    cv::blur(img, mean, {k, k}, {-1, -1}, cv::BORDER_REFLECT);
+    const cv::Mat diff = img - mean;
+    cv::Mat m_dark = diff < -margin, m_light = diff > margin;
+    collect_bars(m_dark, min_bar_px * 0.8, dark);
+    collect_bars(m_light, min_bar_px * 0.8, light);
+  }
+  dark = deduplicate(std::move(dark));
+  light = deduplicate(std::move(light));
+  return {find_triplets(dark, false), find_triplets(light, true)};
+}
+
+Pairing pair_patterns(const std::vector<BarPattern>& P) {
+  struct Candidate {
+    double cost;
+    int h, v;
+  };
+  std::vector<Candidate> cands;
+  for (size_t i = 0; i < P.size(); ++i)
+    for (size_t j = 0; j < P.size(); ++j) {
+      if (i == j) continue;
+      const BarPattern &h = P[i], &v = P[j];
+      if (!similar(h.period_px, v.period_px, 0.15)) continue;
+      if (std::abs(dot(h.bar_dir, v.bar_dir)) > std::sin(15 * M_PI / 180)) continue;
+      const Vec2 d = v.center_px - h.center_px;
+      const double dist = norm(d), period = 0.5 * (h.period_px + v.period_px);
+      if (dist < 2.5 * period || dist > 5.5 * period) continue;
+      // The H pattern's bars run along the line to its V partner.
+      if (std::abs(dot(d, h.bar_dir)) < std::cos(15 * M_PI / 180) * dist) continue;
+      cands.push_back({std::abs(std::log(h.period_px / v.period_px)) + 0.05 * std::abs(dist / period - 3.5),
+                       static_cast<int>(i), static_cast<int>(j)});
+    }
+  std::sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
+  std::vector<unsigned char> used(P.size(), 0);
+  Pairing out;
+  for (const Candidate& c : cands) {
+    if (used[c.h] || used[c.v]) continue;
+    used[c.h] = used[c.v] = 1;
+    ChartElement e;
+    e.h = c.h;
+    e.v = c.v;
+    e.period_px = 0.5 * (P[c.h].period_px + P[c.v].period_px);
+    out.elements.push_back(e);
+  }
+  for (size_t i = 0; i < used.size(); ++i)
+    if (!used[i]) ++out.unpaired, out.lone.push_back(static_cast<int>(i));
+  return out;
+}
+
+}  // namespace tactres::locate_detail

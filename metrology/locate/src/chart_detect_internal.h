@@ -1,0 +1,77 @@
+#pragma once
+// Private to locate: the stages of detect_chart (chart_detect.h).
+//   chart_bars.cpp         steps 1-3: bars, three-bar patterns, elements
+//   chart_arrangement.cpp  the standard arrangement: its steps between
+//                          elements, the group labels, the column ends
+//   chart_detect.cpp       the rest: indices, anchor, partial elements
+
+#include <optional>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "tactres/locate/chart_detect.h"
+#include "tactres/targets/geometry.h"
+
+namespace tactres::locate_detail {
+
+inline Vec2 perp(Vec2 d) { return {-d.y, d.x}; }
+
+// floor(n / 6) for any sign of n: the group of series index n = 6 g + e - 1.
+inline int floor_div6(int n) { return n >= 0 ? n / 6 : -((-n + 5) / 6); }
+
+// ---------------------------------------------------------------------------
+// Bars and patterns (chart_bars.cpp).
+
+// The three-bar patterns of each polarity in `img` (finite pixels): dark
+// bars (a positive chart) and light ones (a negative chart), bars at least
+// min_bar_px wide.
+struct PatternsFound {
+  std::vector<BarPattern> dark, light;
+};
+PatternsFound find_patterns(const cv::Mat& img, double min_bar_px);
+
+// Elements: perpendicular patterns of the same period side by side, each
+// pattern in one element at most (the best-fitting pairs first).
+struct Pairing {
+  std::vector<ChartElement> elements;
+  int unpaired = 0;
+  std::vector<int> lone;  // the unpaired patterns
+};
+Pairing pair_patterns(const std::vector<BarPattern>& P);
+
+// ---------------------------------------------------------------------------
+// The image scale over the chart (chart_detect.cpp): perspective makes it
+// vary, ln(scale) = g . position with `position` the image point relative
+// to the image's centre in half image sizes; level0 is ln of the bar width
+// (px) at relative index 0 and the image's centre.
+struct ScaleField {
+  Vec2 g{0, 0};
+  int cols = 0, rows = 0;  // the image's size, px
+  double half = 1;         // half the image's larger side, px
+  double level0 = 0;
+
+  Vec2 position(Vec2 px) const { return Vec2{(px.x - 0.5 * cols) / half, (px.y - 0.5 * rows) / half}; }
+  // An element's position: the middle of its two patterns.
+  Vec2 position(const ChartDetection& D, const ChartElement& e) const;
+  // An element's bar width from the series and the field (the binarised
+  // period of a blurred fine pattern is too large).
+  double bar_px(const ChartDetection& D, const ChartElement& e) const;
+};
+
+// ---------------------------------------------------------------------------
+// The standard arrangement (chart_arrangement.cpp, chart_detect.h).
+
+// Phase and handedness of D.elements into D.arrangement (see chart_detect.h).
+void recognise_arrangement(ChartDetection& D, const ScaleField& field);
+
+// The group number printed above the column that starts with element `e`
+// (n_mod12: its index modulo 12, 1 or 6), of the parity of parity_group, or
+// nullopt when no reading is clearly best. bar_px: e's bar width.
+std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D, const ChartElement& e,
+                                    int n_mod12, int parity_group, double bar_px);
+
+// See ChartDetection::predicted_elements.
+void predict_column_ends(ChartDetection& D);
+
+}  // namespace tactres::locate_detail
