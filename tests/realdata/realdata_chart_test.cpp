@@ -33,7 +33,7 @@ namespace {
 
 // Share of the readings the measurement agrees with so far (a floor against
 // regressions; raise it as chart mode improves).
-constexpr double kMinAgreement = 0.0;
+constexpr double kMinAgreement = 0.30;  // 10 of 29 on 2026-11-25
 
 const fs::path kRealdata = fs::path(TACTRES_SOURCE_DIR) / ".." / "shared" / "realdata";
 
@@ -78,11 +78,9 @@ bool absolute(const json& j) { return j.contains("chart") && j["chart"].value("i
 
 }  // namespace
 
-TEST_CASE("every capture ends with exit 0, 1 or 2 and a JSON with no NaN") {
-  if (!fs::exists(kRealdata)) {
-    MESSAGE("skipped: " << kRealdata.string() << " is absent (the real captures are never copied into the repo)");
-    return;
-  }
+namespace {
+
+void check_exit_codes_and_json() {
   const json all = readings();
   for (const json& im : all["images"])
     for (const char* key : {"file", "orig"}) {
@@ -94,11 +92,7 @@ TEST_CASE("every capture ends with exit 0, 1 or 2 and a JSON with no NaN") {
     }
 }
 
-TEST_CASE("nothing is called resolved more than one element beyond the reading") {
-  if (!fs::exists(kRealdata)) {
-    MESSAGE("skipped: " << kRealdata.string() << " is absent");
-    return;
-  }
+void check_nothing_resolved_beyond_reading() {
   const json all = readings();
   for (const json& im : all["images"])
     for (const char* key : {"file", "orig"}) {
@@ -121,11 +115,7 @@ TEST_CASE("nothing is called resolved more than one element beyond the reading")
     }
 }
 
-TEST_CASE("agreement with the visual readings") {
-  if (!fs::exists(kRealdata)) {
-    MESSAGE("skipped: " << kRealdata.string() << " is absent");
-    return;
-  }
+void check_agreement() {
   int readings_n = 0, agree = 0, identified = 0, labelled = 0;
   std::string table;
   const json all = readings();
@@ -174,4 +164,20 @@ TEST_CASE("agreement with the visual readings") {
                                 << " labelled captures\n"
                                 << table);
   CHECK(share >= kMinAgreement);
+}
+
+}  // namespace
+
+// One test case, so that each capture is measured once (the runs are cached
+// within the process).
+TEST_CASE("real chart captures against the visual readings") {
+  if (!fs::exists(kRealdata)) {
+    MESSAGE("skipped: " << kRealdata.string() << " is absent (the real captures are never copied into the repo)");
+    return;
+  }
+  SUBCASE("exit 0, 1 or 2 and a JSON with no NaN") { check_exit_codes_and_json(); }
+  SUBCASE("nothing called resolved more than one element beyond the reading") {
+    check_nothing_resolved_beyond_reading();
+  }
+  SUBCASE("agreement within one element") { check_agreement(); }
 }
