@@ -79,6 +79,9 @@ std::string chart_anchor_text(const ChartDetection& d) {
     case ChartAnchor::largest_group:
       return fmt::format("--largest-group (largest element found = G{}E{})", d.elements.front().group,
                          d.elements.front().element);
+    case ChartAnchor::printed_numbers:
+      return fmt::format("the printed numbers (largest element found = G{}E{})", d.elements.front().group,
+                         d.elements.front().element);
     case ChartAnchor::px_per_mm:
       return fmt::format("--px-per-mm (largest element found = G{}E{})", d.elements.front().group,
                          d.elements.front().element);

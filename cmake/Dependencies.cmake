@@ -16,3 +16,8 @@ add_library(mrcal::mrcal UNKNOWN IMPORTED)
 set_target_properties(mrcal::mrcal PROPERTIES
   IMPORTED_LOCATION "${MRCAL_LIBRARY}"
   INTERFACE_INCLUDE_DIRECTORIES "${MRCAL_INCLUDE_DIR}")
+
+# Tesseract (OCR of a chart's printed numbers, metrology/labels) ships a
+# pkg-config file but no CMake config.
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(Tesseract REQUIRED IMPORTED_TARGET tesseract)

@@ -17,6 +17,10 @@ packages=(
   libjs-chart.js       # charts, inlined into the HTML report (tactres report)
   chromium             # headless browser for the HTML report's test
   fonts-dejavu-core    # a font for the headless browser
+  libtesseract-dev     # OCR of a chart's printed group/element numbers (metrology/labels)
+  tesseract-ocr-eng    # its English LSTM model (tessdata); nothing is downloaded at run time
+  libfreetype-dev      # labels' tests render digits in real fonts (DejaVu Sans, Liberation Sans)
+  fonts-liberation     # Liberation Sans (Arial metrics), the second font of those tests
   clang-14             # libFuzzer targets (scripts/fuzz.sh)
   libclang-rt-14-dev   # libFuzzer and sanitizer runtimes for clang
 )

@@ -37,6 +37,7 @@ const char* to_string(ChartAnchor a) {
     case ChartAnchor::largest_group: return "largest_group";
     case ChartAnchor::px_per_mm: return "px_per_mm";
     case ChartAnchor::arrangement: return "arrangement";
+    case ChartAnchor::printed_numbers: return "printed_numbers";
   }
   return "none";
 }
@@ -278,6 +279,15 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const Scal
         "lp/mm are relative to its frequency; give --largest-group or --px-per-mm for absolute values";
     D.elements = kept;
     anchor_by_arrangement(D, kept, field, img, relative);
+    if (D.anchor != ChartAnchor::none) return;
+    // Another typeface than the generator's: read the numbers by OCR.
+    std::string note;
+    if (anchor_by_printed_numbers(D, kept, img, note)) {
+      D.anchor = ChartAnchor::printed_numbers;
+      D.anchor_description = "printed numbers: " + note;
+    } else {
+      D.anchor_description += "; printed numbers: " + note;
+    }
   }
 }
 

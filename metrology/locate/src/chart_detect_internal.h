@@ -74,4 +74,10 @@ std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D,
 // See ChartDetection::predicted_elements.
 void predict_column_ends(ChartDetection& D);
 
+// The anchor from the printed group and element numbers, read by OCR
+// (chart_labels.cpp): sets D.largest_index and returns true when the
+// numbers read fix it; `note` says what was read, or why not.
+bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
+                               std::string& note);
+
 }  // namespace tactres::locate_detail

@@ -73,11 +73,7 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
     const BarPattern& pattern = D.patterns[r.pattern];
     ElementJob job;
     ElementResult& e = job.element;
-    e.group = r.group;
-    e.element = r.element;
-    e.orientation = r.orientation;
-    e.lp_per_mm = r.lp_per_mm;
-    e.px_per_bar = r.bar_width_mm() * frames[i].px_per_mm;
+    e = ElementResult::of(r.group, r.element, r.orientation, r.lp_per_mm, r.bar_width_mm() * frames[i].px_per_mm);
     job.sampling = store.fitted_in_view(r, frames[i], sampling_for(mo, e.px_per_bar));
     job.complement_ideal = D.light_bars;
     const PatternFrame f = store.recentre(r, frames[i], job.sampling);
@@ -142,12 +138,7 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
 void add_partial_elements(const ChartDetection& D, Measurement& M) {
   for (const ChartElement& ce : D.partial) {
     for (BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
-      ElementResult e;
-      e.group = ce.group;
-      e.element = ce.element;
-      e.orientation = o;
-      e.lp_per_mm = usaf_lp_per_mm(ce.group, ce.element);
-      e.px_per_bar = 0.5 * ce.period_px;
+      ElementResult e = ElementResult::of(ce.group, ce.element, o, usaf_lp_per_mm(ce.group, ce.element), 0.5 * ce.period_px);
       e.status = ce.partial == ChartElement::Partial::partner_out_of_view ? ElementStatus::out_of_view
                                                                           : ElementStatus::fit_failed;
       M.elements.push_back(e);

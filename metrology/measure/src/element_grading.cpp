@@ -75,6 +75,12 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     r.status = ElementStatus::aliased;
     r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
                          r.px_per_bar, fit.chi2_reduced);
+  } else if (m < 1e-4 && m_sigma < 1e-4) {
+    // The fit sits on its bound (no modulation left): there the covariance
+    // collapses, and "m = 0 +- 1e-6" would claim a certainty the data do
+    // not give. Not resolved, and said so.
+    r.status = ElementStatus::low_signal;
+    r.note = "the fit drives m to 0 (no modulation left at this frequency); its error cannot be estimated there";
   } else if (m_sigma > options.max_m_sigma) {
     r.status = ElementStatus::low_signal;
     r.note = fmt::format("m_sigma {:.3g} > {:.3g}: the fit cannot pin m down", m_sigma, options.max_m_sigma);

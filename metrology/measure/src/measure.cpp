@@ -159,14 +159,11 @@ std::vector<ElementJob> layout_jobs(const TargetLayout& layout, const TargetView
   std::vector<ElementJob> jobs;
   for (const ElementLayout& e : layout.elements) {
     ElementJob job;
-    ElementResult& r = job.element;
-    r.group = e.group;
-    r.element = e.element;
-    r.orientation = e.orientation;
-    r.lp_per_mm = e.lp_per_mm;
     job.sampling = options.sampling;
     const Strip strip = element_strip(e, job.sampling);
-    r.px_per_bar = e.bar_width_mm * view.px_per_mm_across(strip.center_mm, e.orientation);
+    job.element = ElementResult::of(e.group, e.element, e.orientation, e.lp_per_mm,
+                                    e.bar_width_mm * view.px_per_mm_across(strip.center_mm, e.orientation));
+    ElementResult& r = job.element;
     // Coarse elements need no quarter-pixel bins: cap the bins per bar.
     job.sampling.bin_px = std::max(job.sampling.bin_px, r.px_per_bar / options.max_bins_per_bar);
     job.placements.push_back({&view, &artwork, strip});

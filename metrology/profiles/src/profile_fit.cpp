@@ -295,6 +295,12 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   if (!fixed.empty()) problem.SetManifold(x, new ceres::SubsetManifold(kParamCount, fixed));
   problem.SetParameterLowerBound(x, kLogNu0, std::log(1e-3));
   problem.SetParameterUpperBound(x, kLogNu0, std::log(2.0 / data.bin_mm));
+  // A printed pattern's contrast is the ink/ground reflectance ratio minus
+  // one: ink cannot reflect less than nothing. Unbounded, a fit to a
+  // profile the model cannot describe (flare, dust rings, a resampled
+  // photograph) reached c = -1.8, which halved every m scaled by it.
+  if (options.fit_contrast && options.signature == Signature::albedo)
+    problem.SetParameterLowerBound(x, kContrast, -1.0);
   if (options.fit_shape) {
     problem.SetParameterLowerBound(x, kBeta, options.beta_min);
     problem.SetParameterUpperBound(x, kBeta, options.beta_max);

@@ -22,7 +22,9 @@
 // 5. Anchor: the absolute group comes from --px-per-mm (the largest
 //    element's frequency follows from its period), or from --largest-group
 //    (the largest element found is element --largest-element of it), or,
-//    without either, from the arrangement (see below).
+//    without either, from the arrangement (see below), or else from the
+//    printed group and element numbers read by OCR in any typeface
+//    (labels/label_reader.h; src/chart_labels.cpp).
 //    When none of them fixes the group, indices stay relative and the
 //    result says so, and why.
 //
@@ -76,7 +78,7 @@ struct BarPattern {
   bool predicted = false;   // not found but placed by its column (see ChartDetection)
 };
 
-enum class ChartAnchor { none, largest_group, px_per_mm, arrangement };
+enum class ChartAnchor { none, largest_group, px_per_mm, arrangement, printed_numbers };
 const char* to_string(ChartAnchor a);
 
 // One element: a horizontal- and a vertical-bar pattern of the same size.

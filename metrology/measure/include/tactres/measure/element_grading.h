@@ -22,7 +22,9 @@
 //                           unless `model_mismatch` (the reference patch
 //                           already shows a global mismatch, such as a wrong
 //                           pixel encoding: that, not aliasing, explains it);
-//     low_signal            m_sigma > options.max_m_sigma;
+//     low_signal            the fit sits at m = 0 (m and m_sigma < 1e-4: its
+//                           covariance collapses there), or m_sigma >
+//                           options.max_m_sigma;
 //     ok                    m and m_sigma (>= 1e-6) are set; r.note says so
 //                           when the reduced chi^2 exceeds poor_fit_chi2.
 //   r.beta and r.chi2_reduced are set whenever the fit was usable; m and

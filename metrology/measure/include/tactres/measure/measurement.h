@@ -68,6 +68,17 @@ struct ElementResult {
   std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say
   std::array<Vec2, 4> outline_px{};
   bool outline_valid = false;
+
+  // An element not yet measured: what it is, and its scale in the image.
+  static ElementResult of(int group, int element, BarOrientation orientation, double lp_per_mm, double px_per_bar) {
+    ElementResult r;
+    r.group = group;
+    r.element = element;
+    r.orientation = orientation;
+    r.lp_per_mm = lp_per_mm;
+    r.px_per_bar = px_per_bar;
+    return r;
+  }
 };
 
 // The level step across bars of one orientation (the full bar-to-gap step

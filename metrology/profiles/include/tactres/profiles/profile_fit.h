@@ -18,7 +18,7 @@
 //       through a gel under (linearised) shading, whose image is the
 //       surface slope along the light direction: an edge-like signature;
 // c     the contrast scale: the ink/ground reflectance ratio minus one
-//       (albedo) or the slope response (shading), measured on the
+//       (albedo; bounded below by -1 when fitted) or the slope response (shading), measured on the
 //       reference patch and held fixed for the elements;
 // B0+B1 u  the local illumination, multiplicative, so uneven light does not
 //       bias m.
