@@ -95,6 +95,70 @@ std::optional<double> gate_value(const Limit& l) {
   return l.interpolated_lp_per_mm.value_or(l.lp_per_mm);
 }
 
+// The one-line summary, the gate values and the exit code of a usable
+// measurement (`chart` is null in layout mode).
+void summarise(const Args& a, const Measurement& m, const ChartDetection* chart, Outcome& o) {
+  if (chart && chart->anchor == ChartAnchor::none && (a.require_h || a.require_v)) {
+    o.exit_code = kExitUnusableInput;
+    o.problem =
+        "the chart's group is unknown (see the anchor in the JSON), so --require-h/-v cannot "
+        "be checked in lp/mm: give --largest-group G [--largest-element E] or --px-per-mm";
+    o.summary = fmt::format("RELATIVE: {}: unusable for the requirement: {}", o.design, o.problem);
+    return;
+  }
+  o.h_lp_per_mm = gate_value(m.horizontal);
+  o.v_lp_per_mm = gate_value(m.vertical);
+  int ok = 0, other = 0, poor = 0;
+  for (const ElementResult& e : m.elements) {
+    (e.status == ElementStatus::ok ? ok : other)++;
+    poor += e.status == ElementStatus::ok && !e.note.empty();
+  }
+  std::string spec;
+  std::vector<std::string> below;
+  if (a.require_h && *o.h_lp_per_mm < *a.require_h)
+    below.push_back(fmt::format("H {:.2f} < {:.2f}", *o.h_lp_per_mm, *a.require_h));
+  if (a.require_v && *o.v_lp_per_mm < *a.require_v)
+    below.push_back(fmt::format("V {:.2f} < {:.2f}", *o.v_lp_per_mm, *a.require_v));
+  if (!below.empty()) {
+    o.exit_code = kExitBelowSpec;
+    o.problem = fmt::format("below spec: {}", fmt::join(below, ", "));
+    spec = " [BELOW SPEC: " + fmt::format("{}", fmt::join(below, ", ")) + "]";
+  } else if (a.require_h || a.require_v) {
+    spec = " [within spec]";
+  }
+  if (chart) {
+    const bool relative = chart->anchor == ChartAnchor::none;
+    o.summary = fmt::format("{}{}: H {}; V {}; {} elements ok, {} graded; chart {}, anchor: {}{}{}",
+                            relative ? "RELATIVE: " : "", o.design, limit_text(m.horizontal, relative),
+                            limit_text(m.vertical, relative), ok, other, chart->light_bars ? "negative" : "positive",
+                            chart_anchor_text(*chart),
+                            relative ? " (group unknown: indices count from the largest element found, called G0E1)"
+                                     : "",
+                            spec);
+  } else {
+    o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded{}{}", o.design, limit_text(m.horizontal),
+                            limit_text(m.vertical), ok, other, m.distortion_corrected ? "" : "; distortion NOT corrected",
+                            spec);
+  }
+  // How the pixels were read, and what to check: part of every answer.
+  o.summary += fmt::format("; pixels {} ({})", m.transfer.curve.name(), m.transfer.reason);
+  if (poor > 0) o.summary += fmt::format("; {} ok element(s) fit poorly (see their notes)", poor);
+  for (const std::string& w : m.warnings) o.summary += "\n  warning: " + w;
+}
+
+struct OutputPaths {
+  fs::path json, csv, overlay;  // empty: not written
+};
+
+// In a batch (or with --out-dir) every capture's outputs go to the folder,
+// named after the capture; otherwise where -o/--csv/--overlay say.
+OutputPaths output_paths(const Args& a, const std::string& image_path, bool batch) {
+  if (!batch && a.out_dir.empty()) return {a.output, a.csv, a.overlay};
+  const fs::path dir = a.out_dir;
+  const std::string stem = fs::path(image_path).stem().string();
+  return {dir / (stem + ".json"), dir / (stem + ".csv"), dir / (stem + ".overlay.png")};
+}
+
 // `layout` is null in chart mode.
 Outcome measure_one(const Args& a, const std::string& image_path, const TargetLayout* layout,
                     const CameraModel* camera, const MeasureOptions& options, bool batch) {
@@ -102,18 +166,8 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   o.image = image_path;
   o.design = a.design.empty() || batch ? fs::path(image_path).stem().string() : a.design;
   const auto t0 = std::chrono::steady_clock::now();
-  fs::path json_path, csv_path, overlay_path;
-  if (batch || !a.out_dir.empty()) {
-    const fs::path dir = a.out_dir;
-    const std::string stem = fs::path(image_path).stem().string();
-    json_path = dir / (stem + ".json");
-    csv_path = dir / (stem + ".csv");
-    overlay_path = dir / (stem + ".overlay.png");
-  } else {
-    json_path = a.output;
-    csv_path = a.csv;
-    overlay_path = a.overlay;
-  }
+  const OutputPaths out = output_paths(a, image_path, batch);
+  const fs::path &json_path = out.json, &csv_path = out.csv, &overlay_path = out.overlay;
   LoadOptions lo;
   lo.channel = a.channel;
   lo.transfer = transfer_from_option(a.transfer);
@@ -180,52 +234,7 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
     o.summary = fmt::format("{}: unusable: {}", o.design, m.problem);
     return o;
   }
-  if (chart && chart->anchor == ChartAnchor::none && (a.require_h || a.require_v)) {
-    o.exit_code = kExitUnusableInput;
-    o.problem =
-        "the chart's group is unknown (see the anchor in the JSON), so --require-h/-v cannot "
-        "be checked in lp/mm: give --largest-group G [--largest-element E] or --px-per-mm";
-    o.summary = fmt::format("RELATIVE: {}: unusable for the requirement: {}", o.design, o.problem);
-    return o;
-  }
-  o.h_lp_per_mm = gate_value(m.horizontal);
-  o.v_lp_per_mm = gate_value(m.vertical);
-  int ok = 0, other = 0, poor = 0;
-  for (const ElementResult& e : m.elements) {
-    (e.status == ElementStatus::ok ? ok : other)++;
-    poor += e.status == ElementStatus::ok && !e.note.empty();
-  }
-  std::string spec;
-  std::vector<std::string> below;
-  if (a.require_h && *o.h_lp_per_mm < *a.require_h)
-    below.push_back(fmt::format("H {:.2f} < {:.2f}", *o.h_lp_per_mm, *a.require_h));
-  if (a.require_v && *o.v_lp_per_mm < *a.require_v)
-    below.push_back(fmt::format("V {:.2f} < {:.2f}", *o.v_lp_per_mm, *a.require_v));
-  if (!below.empty()) {
-    o.exit_code = kExitBelowSpec;
-    o.problem = fmt::format("below spec: {}", fmt::join(below, ", "));
-    spec = " [BELOW SPEC: " + fmt::format("{}", fmt::join(below, ", ")) + "]";
-  } else if (a.require_h || a.require_v) {
-    spec = " [within spec]";
-  }
-  if (chart) {
-    const bool relative = chart->anchor == ChartAnchor::none;
-    o.summary = fmt::format("{}{}: H {}; V {}; {} elements ok, {} graded; chart {}, anchor: {}{}{}",
-                            relative ? "RELATIVE: " : "", o.design, limit_text(m.horizontal, relative),
-                            limit_text(m.vertical, relative), ok, other, chart->light_bars ? "negative" : "positive",
-                            chart_anchor_text(*chart),
-                            relative ? " (group unknown: indices count from the largest element found, called G0E1)"
-                                     : "",
-                            spec);
-  } else {
-    o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded{}{}", o.design, limit_text(m.horizontal),
-                            limit_text(m.vertical), ok, other, m.distortion_corrected ? "" : "; distortion NOT corrected",
-                            spec);
-  }
-  // How the pixels were read, and what to check: part of every answer.
-  o.summary += fmt::format("; pixels {} ({})", m.transfer.curve.name(), m.transfer.reason);
-  if (poor > 0) o.summary += fmt::format("; {} ok element(s) fit poorly (see their notes)", poor);
-  for (const std::string& w : m.warnings) o.summary += "\n  warning: " + w;
+  summarise(a, m, chart ? &*chart : nullptr, o);
   return o;
 }
 

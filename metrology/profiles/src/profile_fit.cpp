@@ -225,19 +225,16 @@ double ProfileFit::transfer_sigma(double f) const {
   return std::sqrt(std::max(var, 0.0));
 }
 
-ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options) {
-  options.validate();
-  ProfileFit out;
+// Why `data` cannot be fitted at all, or null. Non-finite geometry or
+// weights would reach the model as NaN positions (found by fuzzing: an
+// undefined float-to-int cast in the cost).
+static const char* unfit_data(const ProfileData& data) {
   const int n = data.bin_count;
   const size_t nn = static_cast<size_t>(std::max(n, 0));
   if (n < 8 || data.bin_mm <= 0 || data.fit_begin < 0 || data.fit_end > n ||
       data.value.size() != nn || data.u_mean_mm.size() != nn || data.sigma.size() != nn ||
-      data.count.size() != nn) {
-    out.problem = "profile too short or inconsistent";
-    return out;
-  }
-  // Non-finite geometry or weights would reach the model as NaN positions
-  // (found by fuzzing: an undefined float-to-int cast in the cost).
+      data.count.size() != nn)
+    return "profile too short or inconsistent";
   bool finite = std::isfinite(data.u0_mm) && std::isfinite(data.bin_mm) &&
                 std::isfinite(data.bin_spread_var_mm2) && data.bin_spread_var_mm2 >= 0;
   for (const IdealBox& b : data.ideal)
@@ -245,8 +242,14 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   for (int i = std::max(data.fit_begin, 0); i < std::min(data.fit_end, n); ++i)
     if (data.count[i] > 0 && std::isfinite(data.value[i]))
       finite = finite && std::isfinite(data.u_mean_mm[i]) && std::isfinite(data.sigma[i]) && data.sigma[i] > 0;
-  if (!finite) {
-    out.problem = "profile has non-finite positions, weights or pattern";
+  return finite ? nullptr : "profile has non-finite positions, weights or pattern";
+}
+
+ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options) {
+  options.validate();
+  ProfileFit out;
+  if (const char* problem = unfit_data(data)) {
+    out.problem = problem;
     return out;
   }
 
