@@ -6,6 +6,7 @@
 #include <regex>
 #include <stdexcept>
 
+#include <omp.h>
 #include <tesseract/baseapi.h>
 #include <tesseract/resultiterator.h>
 
@@ -113,6 +114,15 @@ NumberReading symbols(tesseract::TessBaseAPI& api) {
 }  // namespace
 
 std::optional<NumberReading> LabelReader::recognise(const cv::Mat& upright8) {
+  // Tesseract's LSTM runs OpenMP regions with a fixed thread count; on a
+  // patch this small the threads cost 3-5x what they save. No active
+  // parallel level while it reads (restored after; an OpenMP setting of the
+  // process, but nothing else in tactres runs OpenMP regions).
+  struct SerialOpenMp {
+    int previous = omp_get_max_active_levels();
+    SerialOpenMp() { omp_set_max_active_levels(0); }
+    ~SerialOpenMp() { omp_set_max_active_levels(previous); }
+  } serial;
   tesseract::TessBaseAPI& api = engine_->api;
   api.SetImage(upright8.data, upright8.cols, upright8.rows, 1, static_cast<int>(upright8.step));
   // The scaled text is ~36 px tall, a 9-point line at 300 dpi; saying so
