@@ -137,7 +137,10 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   ProfileData& d = out.data;
   d.bin_mm = o.bin_px / out.px_per_mm_across;
   const double Uext = U + s.extend_u_mm;
-  d.bin_count = std::max(8, static_cast<int>(std::ceil(2 * Uext / d.bin_mm)));
+  // An even count, so that a bin edge always sits at the strip centre: with
+  // an odd count the whole grid moved by half a bin, and a last-bit change
+  // of the image scale that tipped the count moved every m by up to ~1 %.
+  d.bin_count = 2 * std::max(4, static_cast<int>(std::ceil(Uext / d.bin_mm)));
   d.u0_mm = -0.5 * d.bin_count * d.bin_mm;
   d.fit_begin = std::max(0, static_cast<int>(std::floor((-U - d.u0_mm) / d.bin_mm)));
   d.fit_end = std::min(d.bin_count, static_cast<int>(std::ceil((U - d.u0_mm) / d.bin_mm)));
