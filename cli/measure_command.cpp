@@ -67,24 +67,20 @@ std::string limit_text(const Limit& l, bool relative = false) {
 }
 
 std::string chart_anchor_text(const ChartDetection& d) {
+  if (d.anchor == ChartAnchor::none)
+    return d.arrangement.recognised
+               ? "none (arrangement recognised but no group label read: the group is known modulo 2 only)"
+               : "none (arrangement not recognised)";
+  const ChartElement& largest = d.elements.front();
+  const std::string found = fmt::format("largest element found = G{}E{}", largest.group, largest.element);
   switch (d.anchor) {
-    case ChartAnchor::none:
-      return d.arrangement.recognised
-                 ? "none (arrangement recognised but no group label read: the group is known modulo 2 only)"
-                 : "none (arrangement not recognised)";
     case ChartAnchor::arrangement:
-      return fmt::format("the arrangement ({}group labels read; largest element found = G{}E{})",
-                         d.arrangement.mirrored ? "mirrored; " : "", d.elements.front().group,
-                         d.elements.front().element);
-    case ChartAnchor::largest_group:
-      return fmt::format("--largest-group (largest element found = G{}E{})", d.elements.front().group,
-                         d.elements.front().element);
-    case ChartAnchor::printed_numbers:
-      return fmt::format("the printed numbers (largest element found = G{}E{})", d.elements.front().group,
-                         d.elements.front().element);
-    case ChartAnchor::px_per_mm:
-      return fmt::format("--px-per-mm (largest element found = G{}E{})", d.elements.front().group,
-                         d.elements.front().element);
+      return fmt::format("the arrangement ({}group labels read; {})", d.arrangement.mirrored ? "mirrored; " : "",
+                         found);
+    case ChartAnchor::largest_group: return "--largest-group (" + found + ")";
+    case ChartAnchor::printed_numbers: return "the printed numbers (" + found + ")";
+    case ChartAnchor::px_per_mm: return "--px-per-mm (" + found + ")";
+    case ChartAnchor::none: break;
   }
   return "none";
 }

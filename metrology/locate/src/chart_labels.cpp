@@ -30,6 +30,8 @@ namespace {
 constexpr int kMinIndex = -12, kMaxIndex = 59;
 constexpr size_t kMaxBoxes = 40;
 
+Vec2 box_center(const cv::Rect& b) { return {b.x + 0.5 * b.width, b.y + 0.5 * b.height}; }
+
 Vec2 element_center(const ChartDetection& D, const ChartElement& e) {
   return 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
 }
@@ -48,8 +50,8 @@ struct Label {
 };
 
 // The boxes that may hold numbers, within the elements' extent (grown by a
-// few bar lengths: the labels sit beside and above the elements), nearest
-// to an element first.
+// few bar lengths: the labels sit beside and above the elements), the
+// kMaxBoxes nearest to an element.
 std::vector<cv::Rect> label_boxes(const cv::Mat& img, const ChartDetection& D, const std::vector<ChartElement>& kept) {
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300, w_min = 1e300, w_max = 0;
   for (const ChartElement& e : kept) {
@@ -65,18 +67,19 @@ std::vector<cv::Rect> label_boxes(const cv::Mat& img, const ChartDetection& D, c
   search.max_char_height_px = std::max(search.min_char_height_px + 1, std::min(12 * w_max, 0.3 * std::min(img.cols, img.rows)));
   search.ink = D.light_bars ? Ink::light : Ink::dark;
   std::vector<cv::Rect> boxes = find_label_boxes(img, search);
-  auto distance = [&](const cv::Rect& b) {
-    const Vec2 c{b.x + 0.5 * b.width, b.y + 0.5 * b.height};
-    double best = 1e300;
-    for (const ChartElement& e : kept) best = std::min(best, norm(c - element_center(D, e)) / e.period_px);
-    return best;
-  };
-  std::stable_sort(boxes.begin(), boxes.end(), [&](const cv::Rect& a, const cv::Rect& b) { return distance(a) < distance(b); });
-  if (boxes.size() > kMaxBoxes) boxes.resize(kMaxBoxes);
-  // The largest first: they settle the orientation (large print reads best).
-  std::stable_sort(boxes.begin(), boxes.end(), [](const cv::Rect& a, const cv::Rect& b) {
-    return std::max(a.width, a.height) > std::max(b.width, b.height);
-  });
+  // Distance to the nearest element, in that element's periods: computed
+  // once per box, not per comparison.
+  std::vector<std::pair<double, cv::Rect>> by_distance;
+  for (const cv::Rect& b : boxes) {
+    const Vec2 c = box_center(b);
+    double nearest = 1e300;
+    for (const ChartElement& e : kept) nearest = std::min(nearest, norm(c - element_center(D, e)) / e.period_px);
+    by_distance.push_back({nearest, b});
+  }
+  std::stable_sort(by_distance.begin(), by_distance.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  boxes.clear();
+  for (size_t i = 0; i < by_distance.size() && i < kMaxBoxes; ++i) boxes.push_back(by_distance[i].second);
   return boxes;
 }
 
@@ -95,7 +98,7 @@ std::vector<Label> labels_in(const std::vector<cv::Rect>& boxes, const std::vect
   for (size_t i = 0; i < boxes.size(); ++i)
     if (const NumberReading* r = reading_in(read[i], o)) {
       const bool upright = o.rotation_deg % 180 == 0;
-      labels.push_back({{boxes[i].x + 0.5 * boxes[i].width, boxes[i].y + 0.5 * boxes[i].height}, r->value,
+      labels.push_back({box_center(boxes[i]), r->value,
                         double(upright ? r->box_px.height : r->box_px.width)});
     }
   return labels;
@@ -165,11 +168,9 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
                                        credible, best, second);
     return false;
   }
-  const std::string orientation = to_string(best_o);
-  const std::vector<Label> labels(static_cast<size_t>(labels_read));
   D.largest_index = best_k;
   note = fmt::format("{} of {} printed numbers read (text {}) fit the largest element found being group {} element {}",
-                     best, labels.size(), orientation, floor_div6(best_k), best_k - 6 * floor_div6(best_k) + 1);
+                     best, labels_read, to_string(best_o), floor_div6(best_k), best_k - 6 * floor_div6(best_k) + 1);
   return true;
 }
 

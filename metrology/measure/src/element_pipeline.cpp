@@ -15,7 +15,8 @@ std::vector<std::vector<SampledProfile>> sample_jobs(const cv::Mat& lum, const s
                                                      double clip_level) {
   std::vector<std::vector<SampledProfile>> out(jobs.size());
   for (size_t j = 0; j < jobs.size(); ++j)
-    for (const ElementPlacement& p : jobs[j].placements) out[j].push_back(sample_placement(lum, p, jobs[j].sampling, jobs[j].complement_ideal, clip_level));
+    for (const ElementPlacement& p : jobs[j].placements)
+      out[j].push_back(sample_placement(lum, p, jobs[j].sampling, jobs[j].complement_ideal, clip_level));
   return out;
 }
 
