@@ -271,136 +271,152 @@ std::string junit_xml(const std::vector<Outcome>& outcomes) {
 
 }  // namespace
 
+// The command line: every option with its unit, range and default.
+void add_measure_options(CLI::App& app, Args& a) {
+  app.add_option("images", a.images, "Capture(s): any format OpenImageIO reads (PNG, TIFF, EXR, JPEG...)")
+      ->required();
+  auto* layout_opt = app.add_option("--layout", a.layout,
+                                    "Layout JSON of the captured target (from `tactres generate`); "
+                                    "not with --chart");
+  auto* chart_opt = app.add_option("--chart", a.chart,
+                                   "Measure a standard USAF-1951 chart (MIL-STD-150A) found in the image, "
+                                   "with no layout and no fiducials (docs/CHART.md)")
+                        ->check(CLI::IsMember({"usaf1951"}))
+                        ->excludes(layout_opt);
+  auto* lg = app.add_option("--largest-group", a.largest_group,
+                            "Chart mode anchor: the largest element found belongs to this group (-10..12)")
+                 ->needs(chart_opt);
+  app.add_option("--largest-element", a.largest_element,
+                 "With --largest-group: which element of it the largest one found is (1..6)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 6))
+      ->needs(lg);
+  app.add_option("--px-per-mm", a.px_per_mm,
+                 "Chart mode anchor: image scale at the chart plane in px/mm (the largest element's "
+                 "frequency follows from its period)")
+      ->needs(chart_opt)
+      ->excludes(lg);
+  app.add_option("--camera", a.camera,
+                 "mrcal .cameramodel of the camera (default: a pinhole fitted from the fiducials, "
+                 "distortion not corrected)");
+  app.add_option("--design", a.design, "Design label for a single image (default: the file's stem)");
+  app.add_option("-o,--output", a.output, "Measurement JSON (single image)");
+  app.add_option("--csv", a.csv, "Per-element CSV (single image)");
+  app.add_option("--overlay", a.overlay, "Overlay PNG of the sampled strips coloured by status (single image)");
+  app.add_option("--out-dir", a.out_dir,
+                 "Batch: write <stem>.json, <stem>.csv and <stem>.overlay.png here for every image");
+  app.add_option("--threshold", a.threshold, "Criterion: m(f) at the limit, in (0, 1)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.001, 0.999));
+  app.add_option("--preset", a.preset, "Accuracy/time trade: fast, balanced or precise")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"fast", "balanced", "precise"}));
+  app.add_option("--require-h", a.require_h,
+                 "Exit 1 if the horizontal-bar limit (interpolated, lp/mm) is below this");
+  app.add_option("--require-v", a.require_v,
+                 "Exit 1 if the vertical-bar limit (interpolated, lp/mm) is below this");
+  app.add_option("--junit", a.junit, "Write JUnit XML: one test case per image");
+  app.add_option("--channel", a.channel, "Channel to measure (default -1: Rec. 709 luminance)")
+      ->capture_default_str();
+  app.add_option("--transfer", a.transfer, "How the file's code values map to light: auto (the file's colour tag; without one, 8-bit = "
+                 "sRGB, 16-bit and float = linear), linear, srgb, or gamma:G (light = code^G, G in [0.2, 5])")
+      ->capture_default_str()
+      ->check([](const std::string& text) {
+        try {
+          transfer_from_option(text);
+          return std::string();
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+      });
+  app.add_option("--non-finite", a.non_finite, "NaN/Inf pixels: mask (skip them) or reject the image")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"mask", "reject"}));
+  app.add_option("--signature", a.signature,
+                 "Profile model: albedo (printed bars), shading (relief through a gel) or auto")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "albedo", "shading"}));
+  app.add_option("--min-px-per-bar", a.min_px_per_bar,
+                 "Below this many pixels per bar an element is below_sampling_limit (default 1.5)")
+      ->check(CLI::Range(0.5, 20.0));
+  app.add_option("-j,--jobs", a.jobs, "Batch: images measured in parallel (default: all cores)")
+      ->check(CLI::Range(0, 256));
+}
+
+// The analysis options the arguments ask for, validated; throws
+// std::invalid_argument (exit 3) for a combination that cannot work.
+MeasureOptions measure_options(const Args& a, bool batch) {
+  if (!batch && a.output.empty() && a.csv.empty() && a.overlay.empty())
+    throw std::invalid_argument("say where results go: -o result.json (and/or --csv, --overlay), or --out-dir DIR");
+  if (batch && (!a.output.empty() || !a.csv.empty() || !a.overlay.empty()))
+    throw std::invalid_argument("several images need --out-dir DIR instead of -o/--csv/--overlay");
+  if (batch && a.out_dir.empty()) throw std::invalid_argument("several images need --out-dir DIR");
+  MeasureOptions options = MeasureOptions::for_preset(preset_from_string(a.preset));
+  options.criterion.threshold = a.threshold;
+  options.signature = a.signature;
+  if (a.min_px_per_bar) options.min_px_per_bar = *a.min_px_per_bar;
+  options.validate();
+  if (a.chart.empty() && a.layout.empty())
+    throw std::invalid_argument("give the target: --layout layout.json, or --chart usaf1951 for a standard chart");
+  if (!a.chart.empty() && !a.camera.empty())
+    throw std::invalid_argument("--camera does not apply to --chart: chart mode measures each pattern in its own frame");
+  return options;
+}
+
+// Measures every image (in parallel, one bad file never stops the others),
+// prints one summary line each and returns the worst exit code.
+int run_measure(const Args& a) {
+  const bool batch = a.images.size() > 1 || !a.out_dir.empty();
+  const MeasureOptions options = measure_options(a, batch);
+  std::optional<TargetLayout> layout;
+  if (a.chart.empty()) layout = read_layout_file(a.layout);
+  std::optional<CameraModel> camera;
+  if (!a.camera.empty()) camera = CameraModel::load(a.camera);
+  if (!a.out_dir.empty()) {
+    std::error_code ec;
+    fs::create_directories(a.out_dir, ec);
+    if (ec) throw std::runtime_error("cannot create " + a.out_dir + ": " + ec.message());
+  }
+
+  std::vector<Outcome> outcomes(a.images.size());
+  std::atomic<size_t> done{0};
+  std::mutex print;
+  const bool tty = isatty(fileno(stderr)) && batch;
+  for_each_index(a.images.size(), a.jobs, [&](size_t i) {
+      try {
+        outcomes[i] = measure_one(a, a.images[i], layout ? &*layout : nullptr, camera ? &*camera : nullptr, options, batch);
+      } catch (const std::exception& e) {  // an output could not be written
+        outcomes[i].image = a.images[i];
+        outcomes[i].design = fs::path(a.images[i]).stem().string();
+        outcomes[i].exit_code = kExitUsageOrIo;
+        outcomes[i].problem = e.what();
+        outcomes[i].summary = fmt::format("{}: error: {}", outcomes[i].design, e.what());
+      }
+      const size_t n = ++done;
+      if (tty) {
+        std::lock_guard<std::mutex> lock(print);
+        const int width = 30, filled = int(width * n / a.images.size());
+        fmt::print(stderr, "\r[{}{}] {}/{} {}", std::string(filled, '#'), std::string(width - filled, ' '),
+                   n, a.images.size(), n == a.images.size() ? "\n" : "");
+      }
+  });
+
+  int worst = kExitOk;
+  for (const Outcome& o : outcomes) {
+    const bool measured = o.exit_code == kExitOk || o.exit_code == kExitBelowSpec;
+    fmt::print(measured ? stdout : stderr, "{}\n", o.summary);
+    worst = std::max(worst, o.exit_code);
+  }
+  if (!a.junit.empty()) write_file_atomically(a.junit, junit_xml(outcomes));
+  return worst;
+}
+
 Command measure_command() {
   return {"measure", "Measure captures: lp/mm per orientation with uncertainty, JSON/CSV/overlay, CI exit codes",
           [](CLI::App& app) -> std::function<int()> {
             auto a = std::make_shared<Args>();
-            app.add_option("images", a->images, "Capture(s): any format OpenImageIO reads (PNG, TIFF, EXR, JPEG...)")
-                ->required();
-            auto* layout_opt = app.add_option("--layout", a->layout,
-                                              "Layout JSON of the captured target (from `tactres generate`); "
-                                              "not with --chart");
-            auto* chart_opt = app.add_option("--chart", a->chart,
-                                             "Measure a standard USAF-1951 chart (MIL-STD-150A) found in the image, "
-                                             "with no layout and no fiducials (docs/CHART.md)")
-                                  ->check(CLI::IsMember({"usaf1951"}))
-                                  ->excludes(layout_opt);
-            auto* lg = app.add_option("--largest-group", a->largest_group,
-                                      "Chart mode anchor: the largest element found belongs to this group (-10..12)")
-                           ->needs(chart_opt);
-            app.add_option("--largest-element", a->largest_element,
-                           "With --largest-group: which element of it the largest one found is (1..6)")
-                ->capture_default_str()
-                ->check(CLI::Range(1, 6))
-                ->needs(lg);
-            app.add_option("--px-per-mm", a->px_per_mm,
-                           "Chart mode anchor: image scale at the chart plane in px/mm (the largest element's "
-                           "frequency follows from its period)")
-                ->needs(chart_opt)
-                ->excludes(lg);
-            app.add_option("--camera", a->camera,
-                           "mrcal .cameramodel of the camera (default: a pinhole fitted from the fiducials, "
-                           "distortion not corrected)");
-            app.add_option("--design", a->design, "Design label for a single image (default: the file's stem)");
-            app.add_option("-o,--output", a->output, "Measurement JSON (single image)");
-            app.add_option("--csv", a->csv, "Per-element CSV (single image)");
-            app.add_option("--overlay", a->overlay, "Overlay PNG of the sampled strips coloured by status (single image)");
-            app.add_option("--out-dir", a->out_dir,
-                           "Batch: write <stem>.json, <stem>.csv and <stem>.overlay.png here for every image");
-            app.add_option("--threshold", a->threshold, "Criterion: m(f) at the limit, in (0, 1)")
-                ->capture_default_str()
-                ->check(CLI::Range(0.001, 0.999));
-            app.add_option("--preset", a->preset, "Accuracy/time trade: fast, balanced or precise")
-                ->capture_default_str()
-                ->check(CLI::IsMember({"fast", "balanced", "precise"}));
-            app.add_option("--require-h", a->require_h,
-                           "Exit 1 if the horizontal-bar limit (interpolated, lp/mm) is below this");
-            app.add_option("--require-v", a->require_v,
-                           "Exit 1 if the vertical-bar limit (interpolated, lp/mm) is below this");
-            app.add_option("--junit", a->junit, "Write JUnit XML: one test case per image");
-            app.add_option("--channel", a->channel, "Channel to measure (default -1: Rec. 709 luminance)")
-                ->capture_default_str();
-            app.add_option("--transfer", a->transfer, "How the file's code values map to light: auto (the file's colour tag; without one, 8-bit = "
-                           "sRGB, 16-bit and float = linear), linear, srgb, or gamma:G (light = code^G, G in [0.2, 5])")
-                ->capture_default_str()
-                ->check([](const std::string& text) {
-                  try {
-                    transfer_from_option(text);
-                    return std::string();
-                  } catch (const std::invalid_argument& e) {
-                    return std::string(e.what());
-                  }
-                });
-            app.add_option("--non-finite", a->non_finite, "NaN/Inf pixels: mask (skip them) or reject the image")
-                ->capture_default_str()
-                ->check(CLI::IsMember({"mask", "reject"}));
-            app.add_option("--signature", a->signature,
-                           "Profile model: albedo (printed bars), shading (relief through a gel) or auto")
-                ->capture_default_str()
-                ->check(CLI::IsMember({"auto", "albedo", "shading"}));
-            app.add_option("--min-px-per-bar", a->min_px_per_bar,
-                           "Below this many pixels per bar an element is below_sampling_limit (default 1.5)")
-                ->check(CLI::Range(0.5, 20.0));
-            app.add_option("-j,--jobs", a->jobs, "Batch: images measured in parallel (default: all cores)")
-                ->check(CLI::Range(0, 256));
-            return [a]() {
-              const bool batch = a->images.size() > 1 || !a->out_dir.empty();
-              if (!batch && a->output.empty() && a->csv.empty() && a->overlay.empty())
-                throw std::invalid_argument("say where results go: -o result.json (and/or --csv, --overlay), or --out-dir DIR");
-              if (batch && (!a->output.empty() || !a->csv.empty() || !a->overlay.empty()))
-                throw std::invalid_argument("several images need --out-dir DIR instead of -o/--csv/--overlay");
-              if (batch && a->out_dir.empty()) throw std::invalid_argument("several images need --out-dir DIR");
-              MeasureOptions options = MeasureOptions::for_preset(preset_from_string(a->preset));
-              options.criterion.threshold = a->threshold;
-              options.signature = a->signature;
-              if (a->min_px_per_bar) options.min_px_per_bar = *a->min_px_per_bar;
-              options.validate();
-              if (a->chart.empty() && a->layout.empty())
-                throw std::invalid_argument("give the target: --layout layout.json, or --chart usaf1951 for a standard chart");
-              if (!a->chart.empty() && !a->camera.empty())
-                throw std::invalid_argument("--camera does not apply to --chart: chart mode measures each pattern in its own frame");
-              std::optional<TargetLayout> layout;
-              if (a->chart.empty()) layout = read_layout_file(a->layout);
-              std::optional<CameraModel> camera;
-              if (!a->camera.empty()) camera = CameraModel::load(a->camera);
-              if (!a->out_dir.empty()) {
-                std::error_code ec;
-                fs::create_directories(a->out_dir, ec);
-                if (ec) throw std::runtime_error("cannot create " + a->out_dir + ": " + ec.message());
-              }
-
-              std::vector<Outcome> outcomes(a->images.size());
-              std::atomic<size_t> done{0};
-              std::mutex print;
-              const bool tty = isatty(fileno(stderr)) && batch;
-              for_each_index(a->images.size(), a->jobs, [&](size_t i) {
-                  try {
-                    outcomes[i] = measure_one(*a, a->images[i], layout ? &*layout : nullptr, camera ? &*camera : nullptr, options, batch);
-                  } catch (const std::exception& e) {  // an output could not be written
-                    outcomes[i].image = a->images[i];
-                    outcomes[i].design = fs::path(a->images[i]).stem().string();
-                    outcomes[i].exit_code = kExitUsageOrIo;
-                    outcomes[i].problem = e.what();
-                    outcomes[i].summary = fmt::format("{}: error: {}", outcomes[i].design, e.what());
-                  }
-                  const size_t n = ++done;
-                  if (tty) {
-                    std::lock_guard<std::mutex> lock(print);
-                    const int width = 30, filled = int(width * n / a->images.size());
-                    fmt::print(stderr, "\r[{}{}] {}/{} {}", std::string(filled, '#'), std::string(width - filled, ' '),
-                               n, a->images.size(), n == a->images.size() ? "\n" : "");
-                  }
-              });
-
-              int worst = kExitOk;
-              for (const Outcome& o : outcomes) {
-                const bool measured = o.exit_code == kExitOk || o.exit_code == kExitBelowSpec;
-                fmt::print(measured ? stdout : stderr, "{}\n", o.summary);
-                worst = std::max(worst, o.exit_code);
-              }
-              if (!a->junit.empty()) write_file_atomically(a->junit, junit_xml(outcomes));
-              return worst;
-            };
+            add_measure_options(app, *a);
+            return [a]() { return run_measure(*a); };
           }};
 }
 
