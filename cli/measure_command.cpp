@@ -30,6 +30,7 @@ struct Args {
   std::string layout, camera, design, output, csv, overlay, out_dir, junit;
   std::string preset = "balanced", transfer = "auto", non_finite = "mask", signature = "auto";
   double threshold = 0.10;
+  double detectability_k = 5.0;
   std::optional<double> require_h, require_v, min_px_per_bar;
   int channel = -1;
   int jobs = 0;
@@ -62,6 +63,18 @@ std::string limit_text(const Limit& l, bool relative = false) {
     std::vector<std::string> names;
     for (const Limit::Bridged& b : l.bridged) names.push_back(fmt::format("G{}E{}", b.group, b.element));
     s += fmt::format(" [across unmeasured {}]", fmt::join(names, ", "));
+  }
+  return s;
+}
+
+// The reported limit, and what limits it when that is the light, not the optics.
+std::string parts_text(const LimitBreakdown& p, bool relative = false) {
+  std::string s = limit_text(p.reported(), relative);
+  if (p.limited_by == LimitingFactor::light_noise) {
+    const Limit& o = p.optical;
+    s += o.any_resolved ? fmt::format(" [limited by light/noise; optics alone G{}E{}{}]", o.group, o.element,
+                                      o.interpolated_lp_per_mm ? fmt::format(" {:.2f}", *o.interpolated_lp_per_mm) : "")
+                        : " [limited by light/noise]";
   }
   return s;
 }
@@ -125,15 +138,15 @@ void summarise(const Args& a, const Measurement& m, const ChartDetection* chart,
   if (chart) {
     const bool relative = chart->anchor == ChartAnchor::none;
     o.summary = fmt::format("{}{}: H {}; V {}; {} elements ok, {} graded; chart {}, anchor: {}{}{}",
-                            relative ? "RELATIVE: " : "", o.design, limit_text(m.horizontal, relative),
-                            limit_text(m.vertical, relative), ok, other, chart->light_bars ? "negative" : "positive",
+                            relative ? "RELATIVE: " : "", o.design, parts_text(m.horizontal_parts, relative),
+                            parts_text(m.vertical_parts, relative), ok, other, chart->light_bars ? "negative" : "positive",
                             chart_anchor_text(*chart),
                             relative ? " (group unknown: indices count from the largest element found, called G0E1)"
                                      : "",
                             spec);
   } else {
-    o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded{}{}", o.design, limit_text(m.horizontal),
-                            limit_text(m.vertical), ok, other, m.distortion_corrected ? "" : "; distortion NOT corrected",
+    o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded{}{}", o.design, parts_text(m.horizontal_parts),
+                            parts_text(m.vertical_parts), ok, other, m.distortion_corrected ? "" : "; distortion NOT corrected",
                             spec);
   }
   // How the pixels were read, and what to check: part of every answer.
@@ -308,13 +321,18 @@ void add_measure_options(CLI::App& app, Args& a) {
   app.add_option("--threshold", a.threshold, "Criterion: m(f) at the limit, in (0, 1)")
       ->capture_default_str()
       ->check(CLI::Range(0.001, 0.999));
+  app.add_option("--detectability-k", a.detectability_k,
+                 "Rose threshold: an element is detectable when its bars' contrast-to-noise ratio over one bar's "
+                 "pixels is >= k, in [1, 100] (docs/CONVENTIONS.md, \"Two limits\")")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 100.0));
   app.add_option("--preset", a.preset, "Accuracy/time trade: fast, balanced or precise")
       ->capture_default_str()
       ->check(CLI::IsMember({"fast", "balanced", "precise"}));
   app.add_option("--require-h", a.require_h,
-                 "Exit 1 if the horizontal-bar limit (interpolated, lp/mm) is below this");
+                 "Exit 1 if the reported horizontal-bar limit (interpolated, lp/mm; the coarser of optics and detectability) is below this");
   app.add_option("--require-v", a.require_v,
-                 "Exit 1 if the vertical-bar limit (interpolated, lp/mm) is below this");
+                 "Exit 1 if the reported vertical-bar limit (interpolated, lp/mm; the coarser of optics and detectability) is below this");
   app.add_option("--junit", a.junit, "Write JUnit XML: one test case per image");
   app.add_option("--channel", a.channel, "Channel to measure (default -1: Rec. 709 luminance)")
       ->capture_default_str();
@@ -353,6 +371,7 @@ MeasureOptions measure_options(const Args& a, bool batch) {
   if (batch && a.out_dir.empty()) throw std::invalid_argument("several images need --out-dir DIR");
   MeasureOptions options = MeasureOptions::for_preset(preset_from_string(a.preset));
   options.criterion.threshold = a.threshold;
+  options.detectability.k = a.detectability_k;
   options.signature = a.signature;
   if (a.min_px_per_bar) options.min_px_per_bar = *a.min_px_per_bar;
   options.validate();

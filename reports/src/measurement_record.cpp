@@ -71,9 +71,29 @@ ElementRecord element_from_json(const nlohmann::json& j, const std::string& wher
   e.m = nullable_number(f, "m", -10, 10);
   e.m_sigma = nullable_number(f, "m_sigma", 0, 10);
   e.resolved = f.boolean("resolved", std::nullopt);
+  if (f.has("cnr")) {  // /2
+    e.cnr = nullable_number(f, "cnr", 0, 1e12);
+    e.cnr_sigma = nullable_number(f, "cnr_sigma", 0, 1e12);
+    e.detectable = f.boolean("detectable", std::nullopt);
+  }
   if (e.status == "ok" && (!e.m || !e.m_sigma))
     throw std::invalid_argument(where + " has status \"ok\" but m or m_sigma is null");
   return e;
+}
+
+// limits.<orientation> of a /2 file: the reported limit's fields, then its
+// two parts; a /1 file has the reported (= optical) fields only.
+LimitParts parts_from_json(const nlohmann::json& j, const LimitRecord& reported, const std::string& where) {
+  LimitParts p;
+  p.optical = reported;
+  if (!j.is_object() || !j.contains("optical")) return p;
+  JsonFields f(j, where);
+  p.optical = limit_from_json(f.raw("optical"), where + ".optical");
+  p.detectability = limit_from_json(f.raw("detectability"), where + ".detectability");
+  p.detectability_known = true;
+  p.light_limited = f.text("limited_by", std::nullopt, {"optics", "light/noise"}) == "light/noise";
+  p.light_needed = nullable_number(f, "light_needed_factor", 0, 1e12);
+  return p;
 }
 
 }  // namespace
@@ -87,11 +107,11 @@ MeasurementRecord measurement_from_json(const nlohmann::json& j, const std::stri
   MeasurementRecord r;
   r.path = where;
   const std::string schema = f.text("schema", std::nullopt);
-  if (schema != kMeasurementSchema)
+  if (schema != kMeasurementSchema && schema != kMeasurementSchemaV1)
     throw std::invalid_argument(fmt::format(
-        "{} is not a tactres measurement (schema \"{}\", expected \"{}\"): give the JSONs that `tactres measure` "
-        "wrote",
-        where, schema, kMeasurementSchema));
+        "{} is not a tactres measurement (schema \"{}\", expected \"{}\" or \"{}\"): give the JSONs that `tactres "
+        "measure` wrote",
+        where, schema, kMeasurementSchema, kMeasurementSchemaV1));
   r.design = f.text("design", std::nullopt);
   if (r.design.empty()) throw std::invalid_argument(where + ".design is empty: every measurement needs a design label");
   r.layout = f.text("layout", std::nullopt);
@@ -108,6 +128,7 @@ MeasurementRecord measurement_from_json(const nlohmann::json& j, const std::stri
   JsonFields criterion(f.raw("criterion"), where + ".criterion");
   r.threshold = criterion.number("threshold", std::nullopt, 1e-9, 1 - 1e-9);
   r.significance_z = criterion.number("significance_z", std::nullopt, 0, 100);
+  if (criterion.has("detectability_k")) r.detectability_k = criterion.number("detectability_k", std::nullopt, 1, 100);
 
   JsonFields nyquist(f.raw("nyquist_lp_per_mm"), where + ".nyquist_lp_per_mm");
   r.nyquist_h_lp_per_mm = nullable_number(nyquist, "horizontal_bars", 0, kMaxLpPerMm, "lp/mm").value_or(0.0);
@@ -116,6 +137,8 @@ MeasurementRecord measurement_from_json(const nlohmann::json& j, const std::stri
   JsonFields limits(f.raw("limits"), where + ".limits");
   r.horizontal = limit_from_json(limits.raw("horizontal_bars"), where + ".limits.horizontal_bars");
   r.vertical = limit_from_json(limits.raw("vertical_bars"), where + ".limits.vertical_bars");
+  r.horizontal_parts = parts_from_json(limits.raw("horizontal_bars"), r.horizontal, where + ".limits.horizontal_bars");
+  r.vertical_parts = parts_from_json(limits.raw("vertical_bars"), r.vertical, where + ".limits.vertical_bars");
   if (!r.usable && (r.horizontal.resolved_any || r.vertical.resolved_any))
     throw std::invalid_argument(where + " says usable = false but gives limits: the file is inconsistent");
 

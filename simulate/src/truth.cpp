@@ -6,7 +6,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tactres/simulate/effects/illumination.h"
 #include "tactres/simulate/effects/psf.h"
+#include "tactres/simulate/effects/sensor_model.h"
 #include "tactres/camera/target_view.h"
 
 namespace tactres {
@@ -40,6 +42,112 @@ double lambert_sine_ratio(const ShadingEffect& sh, double slope_amp, double ux, 
   return std::abs(c1_lin) > 1e-15 ? c1 / c1_lin : 1.0;
 }
 
+// The ground level (input units, before the sensor) and the level step c
+// an element's bars show, at a target point with relative irradiance
+// `light` and vignetting factor `vignetting` (profile_fit.h's model:
+// P = B0 (1 + c D[S])). Absent where the scene gives no bar signal model.
+struct LocalLevels {
+  double ground = 0, contrast = 0;
+  Signature signature = Signature::albedo;
+};
+std::optional<LocalLevels> local_levels(const Scene& scene, const TargetLayout& layout, BarOrientation bars,
+                                        double light, double vignetting) {
+  const double field = light * vignetting;
+  if (scene.target == TargetKind::albedo) {
+    if (!(scene.ground_reflectance > 0)) return std::nullopt;
+    return LocalLevels{scene.ground_reflectance * field, scene.ink_reflectance / scene.ground_reflectance - 1,
+                       Signature::albedo};
+  }
+  const ShadingEffect* sh = scene.find<ShadingEffect>();
+  const ContactEffect* contact = scene.find<ContactEffect>();
+  if (!sh || !contact) return std::nullopt;
+  // Linearised Lambert: R = albedo sum w (l_z - h_x l_x - h_y l_y) + ambient,
+  // h = depth_fraction * relief height * S: the ground is the flat
+  // response, the step per unit dS/du the slope response along u.
+  double flat = 0, along_u = 0;
+  for (const Light& li : sh->lights) {
+    const double az = li.azimuth_deg * kPi / 180, el = li.elevation_deg * kPi / 180;
+    flat += li.weight * std::sin(el);
+    along_u += li.weight * std::cos(el) * (bars == BarOrientation::vertical_bars ? std::cos(az) : std::sin(az));
+  }
+  const double ground = (sh->albedo * flat + sh->ambient) * field;
+  if (!(ground > 0)) return std::nullopt;
+  const double height_mm = contact->depth_fraction * layout.relief_height_mm;
+  return LocalLevels{ground, -sh->albedo * height_mm * along_u * field / ground, Signature::shading};
+}
+
+// cos^n of the chief ray's angle at a pixel (the renderer's vignetting).
+double vignetting_at(const Scene& scene, const CameraModel& camera, Vec2 px) {
+  const VignettingEffect* v = scene.find<VignettingEffect>();
+  if (!v) return 1.0;
+  const auto rays = camera.unproject(std::vector<Vec2>{px});
+  if (!rays.front()) return 1.0;
+  const auto& r = *rays.front();
+  return std::pow(r.z / std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z), v->exponent);
+}
+
+// The true Rose CNR of every in-view element (truth.h).
+void set_true_cnr(Truth& t, const Scene& scene, const TargetLayout& layout, const CameraModel& camera,
+                  const TargetView& view) {
+  const SensorOptions* sensor = scene.find<SensorOptions>();
+  if (!sensor) return;
+  std::optional<IlluminationField> light;
+  if (const IlluminationOptions* ill = scene.find<IlluminationOptions>()) {
+    IlluminationOptions o = *ill;  // as the renderer resolves it
+    if (std::isnan(o.aperture_center_mm.x)) o.aperture_center_mm = {0.5 * layout.width_mm, 0.5 * layout.height_mm};
+    light.emplace(o, RectMm{-0.5 * layout.width_mm, -0.5 * layout.height_mm, 1.5 * layout.width_mm,
+                            1.5 * layout.height_mm});
+  }
+  const double dn_per_input = sensor_mean_dn(*sensor, 1.0) - sensor_mean_dn(*sensor, 0.0);
+  for (size_t i = 0; i < t.elements.size(); ++i) {
+    TruthElement& te = t.elements[i];
+    if (!te.in_view) continue;
+    const Vec2 c = layout.elements[i].extent_mm().center_mm();
+    const auto levels = local_levels(scene, layout, te.orientation, light ? light->exact_relative_irradiance(c) : 1.0,
+                                     vignetting_at(scene, camera, te.center_px));
+    if (!levels) continue;
+    const BarOrientation along = te.orientation == BarOrientation::vertical_bars ? BarOrientation::horizontal_bars
+                                                                                 : BarOrientation::vertical_bars;
+    const double anisotropy = view.px_per_mm_across(c, along) / view.px_per_mm_across(c, te.orientation);
+    const double signal_dn =
+        dn_per_input * bar_signal_ptp(te.m, levels->contrast, levels->ground, levels->signature, te.lp_per_mm);
+    const double noise_dn =
+        sensor_sigma_dn(*sensor, element_mean_level(levels->contrast, levels->ground, levels->signature));
+    te.cnr = rose_cnr(signal_dn, pixels_per_bar(te.px_per_bar, anisotropy), noise_dn);
+  }
+}
+
+}  // namespace
+
+namespace {
+// The optical and (with a sensor) the detectability limit, exactly: no
+// significance test, the truth has no error.
+void decide_true_limits(Truth& t, const Criterion& criterion) {
+  Criterion exact = criterion;
+  exact.significance_z = 0;
+  t.detectability.significance_z = 0;
+  for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+    std::vector<MPoint> m;
+    std::vector<CnrPoint> cnr;
+    bool noise_free = true;
+    for (const TruthElement& te : t.elements)
+      if (te.orientation == o) {
+        m.push_back({te.group, te.element, te.lp_per_mm, te.m, 0.0, te.in_view});
+        cnr.push_back({te.group, te.element, te.lp_per_mm, te.cnr.value_or(0.0), 0.0, te.in_view && te.cnr});
+        noise_free = noise_free && !te.cnr;
+      }
+    auto by_f = [](const auto& a, const auto& b) { return a.lp_per_mm < b.lp_per_mm; };
+    std::sort(m.begin(), m.end(), by_f);
+    std::sort(cnr.begin(), cnr.end(), by_f);
+    const Limit optical = find_limit(m, exact);
+    // Noise-free: nothing limits detection, so the optics alone decide.
+    LimitBreakdown parts = noise_free ? LimitBreakdown{optical, optical, LimitingFactor::optics}
+                                      : combine_limits(optical, find_detectability_limit(cnr, t.detectability));
+    const bool h = o == BarOrientation::horizontal_bars;
+    (h ? t.horizontal_parts : t.vertical_parts) = parts;
+    (h ? t.horizontal : t.vertical) = parts.reported();
+  }
+}
 }  // namespace
 
 Truth compute_truth(const Scene& scene, const TargetLayout& layout, const CameraModel& camera) {
@@ -94,14 +202,8 @@ Truth compute_truth(const Scene& scene, const TargetLayout& layout, const Camera
     t.elements.push_back(te);
   }
 
-  std::vector<OrientedPoint> pts;
-  for (const TruthElement& te : t.elements)
-    pts.push_back({te.orientation, {te.group, te.element, te.lp_per_mm, te.m, 0.0, te.in_view}});
-  Criterion exact = scene.criterion;
-  exact.significance_z = 0;  // the truth is exact
-  const Limits limits = find_limits(pts, exact);
-  t.horizontal = limits.horizontal;
-  t.vertical = limits.vertical;
+  set_true_cnr(t, scene, layout, camera, view);
+  decide_true_limits(t, scene.criterion);
 
   const TargetView::Nyquist nyq = view.nyquist({0.5 * layout.width_mm, 0.5 * layout.height_mm});
   t.nyquist_h_lp_per_mm = nyq.horizontal_bars_lp_per_mm;
@@ -129,9 +231,12 @@ nlohmann::json truth_to_json(const Truth& t, const Scene& scene, const std::stri
                    {"analytic", e.analytic},
                    {"px_per_bar", e.px_per_bar},
                    {"center_px", {e.center_px.x, e.center_px.y}},
-                   {"in_view", e.in_view}});
+                   {"in_view", e.in_view},
+                   {"cnr", e.cnr && std::isfinite(*e.cnr) ? nlohmann::json(*e.cnr) : nlohmann::json()}});
   j["elements"] = els;
-  j["limits"] = {{"horizontal_bars", limit_to_json(t.horizontal)}, {"vertical_bars", limit_to_json(t.vertical)}};
+  j["criterion"]["detectability_k"] = t.detectability.k;
+  j["limits"] = {{"horizontal_bars", breakdown_to_json(t.horizontal_parts, t.detectability)},
+                 {"vertical_bars", breakdown_to_json(t.vertical_parts, t.detectability)}};
   return j;
 }
 

@@ -14,6 +14,6 @@ double usaf_lp_per_mm(int group, int element) {
 
 double usaf_bar_width_mm(int group, int element) { return 0.5 / usaf_lp_per_mm(group, element); }
 
-double usaf_bar_length_mm(int group, int element) { return 5.0 * usaf_bar_width_mm(group, element); }
+double usaf_bar_length_mm(int group, int element) { return kUsafBarLengthInWidths * usaf_bar_width_mm(group, element); }
 
 }  // namespace tactres

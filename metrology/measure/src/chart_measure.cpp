@@ -205,7 +205,7 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
   // some groups and cuts others, and a cut coarse element says nothing
   // about the finer ones (layout mode, which frames the whole target,
   // counts it as unresolved instead).
-  decide_limits(M, mo.criterion, true);
+  decide_limits(M, mo.criterion, mo.detectability, true);
   add_partial_elements(D, M);
   M.stage_seconds.push_back({"decide", t.seconds()});
   M.usable = true;

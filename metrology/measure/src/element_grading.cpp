@@ -17,6 +17,18 @@ constexpr double kShadingModelLogSigma = 0.012;
 // Aliasing needs a misfit at least this large against the RMS of the fitted
 // signature: ~1.1 RMS is half the peak-to-peak of the bars' fundamental.
 constexpr double kAliasingMisfitShare = 1.1;
+
+// What the Rose CNR needs from an ok element's own fit
+// (profiles/detectability.h): the signal from the fitted m, the fixed level
+// step and the local ground level B0; the level whose noise counts; the
+// pixels of one bar. The noise itself comes from the whole capture
+// (element_pipeline.cpp, pool_noise).
+void set_signal(ElementResult& r, const SampledProfile& sp, const ProfileFit& fit, const ProfileFitOptions& fo) {
+  r.signal = bar_signal_ptp(r.m, fo.contrast, fit.b0, fo.signature, r.lp_per_mm);
+  r.mean_level = element_mean_level(fo.contrast, fit.b0, fo.signature);
+  const double anisotropy = sp.px_per_mm_across > 0 ? sp.px_per_mm_along / sp.px_per_mm_across : 1.0;
+  r.bar_pixels = pixels_per_bar(r.px_per_bar, anisotropy);
+}
 }  // namespace
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
@@ -88,6 +100,7 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     r.status = ElementStatus::ok;
     r.m = m;
     r.m_sigma = std::max(m_sigma, 1e-6);
+    set_signal(r, sp, fit, fo);
     // The covariance is already scaled by the reduced chi^2 (profile_fit.h),
     // so m_sigma carries the misfit; a person still needs to know.
     if (fit.chi2_reduced > options.poor_fit_chi2)
@@ -103,19 +116,38 @@ bool is_unmeasured(ElementStatus s, bool chart_photograph) {
          (chart_photograph && s == ElementStatus::out_of_view);
 }
 
-void decide_limits(Measurement& M, const Criterion& criterion, bool chart_photograph) {
+void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,
+                   bool chart_photograph) {
   std::vector<OrientedPoint> pts;
   for (const ElementResult& r : M.elements) {
     MPoint p{r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok};
     p.unmeasured = is_unmeasured(r.status, chart_photograph);
     pts.push_back({r.orientation, p});
   }
-  const Limits limits = find_limits(pts, criterion);
-  M.horizontal = limits.horizontal;
-  M.vertical = limits.vertical;
-  for (ElementResult& r : M.elements)
+  const Limits optical = find_limits(pts, criterion);
+  for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+    std::vector<CnrPoint> cnr;
+    for (const ElementResult& r : M.elements)
+      if (r.orientation == o) {
+        CnrPoint p{r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, r.status == ElementStatus::ok};
+        p.unmeasured = is_unmeasured(r.status, chart_photograph);
+        p.shot_fraction = r.noise_shot_fraction;
+        cnr.push_back(p);
+      }
+    std::sort(cnr.begin(), cnr.end(), [](const CnrPoint& a, const CnrPoint& b) { return a.lp_per_mm < b.lp_per_mm; });
+    const bool h = o == BarOrientation::horizontal_bars;
+    const Limit& optical_limit = h ? optical.horizontal : optical.vertical;
+    LimitBreakdown parts = combine_limits(optical_limit, find_detectability_limit(cnr, detectability));
+    parts.light_needed = light_needed_factor(cnr, optical_limit, detectability);
+    (h ? M.horizontal_parts : M.vertical_parts) = parts;
+    (h ? M.horizontal : M.vertical) = parts.reported();
+  }
+  for (ElementResult& r : M.elements) {
     r.resolved = r.status == ElementStatus::ok &&
                  is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
+    r.detectable = r.status == ElementStatus::ok &&
+                   is_detectable({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, true}, detectability);
+  }
 }
 
 }  // namespace tactres

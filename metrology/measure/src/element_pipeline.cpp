@@ -1,5 +1,7 @@
 #include "tactres/measure/element_pipeline.h"
 
+#include <algorithm>
+#include <cmath>
 #include <utility>
 
 namespace tactres {
@@ -20,12 +22,54 @@ std::vector<std::vector<SampledProfile>> sample_jobs(const cv::Mat& lum, const s
   return out;
 }
 
+namespace {
+// Coarse elements' strips have flat bins to measure the noise in.
+constexpr double kNoisePoolPxPerBar = 4.0;
+
+// One noise model for the whole capture: the per-pixel noise belongs to the
+// sensor, not to an element. Each strip fits var(level) = a + b level to
+// the scatter along its bars (profile_sampler.h), but a fine element's bins
+// are rarely flat (its bars' own slope inflates the scatter, up to 2x on
+// simulated captures), so the coarse elements' models are pooled: each ok
+// element's noise is the median of their predictions at its own mean level.
+// Then its CNR (profiles/detectability.h).
+void pool_noise(std::vector<ElementResult>& elements, size_t first, const std::vector<const SampledProfile*>& strips) {
+  std::vector<const SampledProfile*> pool;
+  for (size_t i = first; i < elements.size(); ++i)
+    if (elements[i].status == ElementStatus::ok && elements[i].px_per_bar >= kNoisePoolPxPerBar)
+      pool.push_back(strips[i - first]);
+  if (pool.empty())  // a chart photograph of fine groups only
+    for (size_t i = first; i < elements.size(); ++i)
+      if (elements[i].status == ElementStatus::ok) pool.push_back(strips[i - first]);
+  std::vector<std::pair<double, const SampledProfile*>> sd(pool.size());
+  for (size_t i = first; i < elements.size(); ++i) {
+    ElementResult& r = elements[i];
+    if (r.status != ElementStatus::ok || pool.empty()) continue;
+    for (size_t k = 0; k < pool.size(); ++k) sd[k] = {pool[k]->noise_sd_at(r.mean_level), pool[k]};
+    std::nth_element(sd.begin(), sd.begin() + sd.size() / 2, sd.end());
+    const auto [noise_sd, median] = sd[sd.size() / 2];
+    // A noise-free render has ~no scatter: the floor (a 16-bit code step)
+    // keeps the CNR finite without ever making it limit.
+    r.noise_sd = std::max(noise_sd, 1.5e-5 * std::abs(r.mean_level));
+    r.noise_shot_fraction =
+        std::clamp(median->noise_var_per_level * std::max(r.mean_level, 0.0) / (r.noise_sd * r.noise_sd), 0.0, 1.0);
+    r.cnr = rose_cnr(r.signal, r.bar_pixels, r.noise_sd);
+    // The signal carries m's relative error; a noise estimate from dof
+    // degrees of freedom has 1 / sqrt(2 dof) (a chi-square).
+    const double noise_rel = median->noise_dof > 0 ? 1 / std::sqrt(2 * median->noise_dof) : 0.5;
+    r.cnr_sigma = r.cnr * std::hypot(r.m_sigma / std::max(r.m, 1e-9), noise_rel);
+  }
+}
+}  // namespace
+
 double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
                   const GradingContext& context, std::vector<ElementResult>& elements) {
   const ReferenceResult& ref = context.reference;
   double fit_seconds = 0;
   // Warm start per orientation from the last good fit (coarse to fine).
   std::pair<double, double> last_lsf[2] = {{0, 0}, {0, 0}};
+  const size_t first = elements.size();
+  std::vector<const SampledProfile*> strips;  // the placement each element was graded on
   for (size_t j = 0; j < jobs.size(); ++j) {
     const ElementJob& job = jobs[j];
     ElementResult r = job.element;
@@ -41,6 +85,7 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
       r.note = "the reference patch shows no contrast across these bars (a relief lit along them?): m cannot be "
                "scaled";
       elements.push_back(r);
+      strips.push_back(&profiles[j].front());
       continue;
     }
     ProfileFitOptions fo;
@@ -49,6 +94,7 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
     fo.contrast = step.contrast;
     fo.fit_shape = context.options.fit_psf_shape;
     const std::pair<double, double> warm_before = warm;
+    const SampledProfile* graded_on = &profiles[j].front();
     fit_seconds += grade_element(r, profiles[j].front(), fo, step.contrast_sigma, context.options, warm, job.prepare,
                                  context.model_mismatch);
     // Another placement replaces the first only when the model fits it better.
@@ -63,10 +109,13 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
       if (alt_fitted && (!r_fitted || alt.chi2_reduced < r.chi2_reduced)) {
         r = alt;
         warm = alt_warm;
+        graded_on = &profiles[j][k];
       }
     }
     elements.push_back(r);
+    strips.push_back(graded_on);
   }
+  pool_noise(elements, first, strips);
   return fit_seconds;
 }
 

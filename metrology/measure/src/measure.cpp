@@ -249,7 +249,7 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
 
   // Decide.
   t.restart();
-  decide_limits(M, options.criterion, false);
+  decide_limits(M, options.criterion, options.detectability, false);
   M.stage_seconds.push_back({"decide", t.seconds()});
   M.usable = true;
   return M;

@@ -59,6 +59,7 @@ MeasureOptions MeasureOptions::for_preset(Preset p) {
 void MeasureOptions::validate() const {
   sampling.validate();
   criterion.validate();
+  detectability.validate();
   if (!(min_px_per_bar >= 0.5 && min_px_per_bar <= 20))
     throw std::invalid_argument("--min-px-per-bar must be in [0.5, 20]");
   if (!(max_m_sigma > 0 && max_m_sigma <= 1)) throw std::invalid_argument("max m sigma must be in (0, 1]");

@@ -29,7 +29,8 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
   j["problem"] = m.problem.empty() ? nlohmann::json() : nlohmann::json(m.problem);
   if (ctx.options) {
     j["criterion"] = {{"threshold", ctx.options->criterion.threshold},
-                      {"significance_z", ctx.options->criterion.significance_z}};
+                      {"significance_z", ctx.options->criterion.significance_z},
+                      {"detectability_k", ctx.options->detectability.k}};
     j["preset"] = to_string(ctx.options->preset);
   }
   if (ctx.loaded) {
@@ -76,7 +77,9 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
     j["reference"] = nullptr;
   j["nyquist_lp_per_mm"] = {{"horizontal_bars", finite(m.nyquist_h_lp_per_mm)},
                             {"vertical_bars", finite(m.nyquist_v_lp_per_mm)}};
-  j["limits"] = {{"horizontal_bars", limit_to_json(m.horizontal)}, {"vertical_bars", limit_to_json(m.vertical)}};
+  const DetectabilityCriterion rose = ctx.options ? ctx.options->detectability : DetectabilityCriterion{};
+  j["limits"] = {{"horizontal_bars", breakdown_to_json(m.horizontal_parts, rose)},
+                 {"vertical_bars", breakdown_to_json(m.vertical_parts, rose)}};
   nlohmann::json els = nlohmann::json::array();
   for (const ElementResult& e : m.elements) {
     const bool ok = e.status == ElementStatus::ok;
@@ -91,6 +94,12 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
                    {"chi2_reduced", e.chi2_reduced > 0 ? finite(e.chi2_reduced) : nlohmann::json()},
                    {"status", to_string(e.status)},
                    {"resolved", e.resolved},
+                   {"signal", ok ? finite(e.signal) : nlohmann::json()},
+                   {"noise_sd", ok ? finite(e.noise_sd) : nlohmann::json()},
+                   {"pixels_per_bar", ok ? finite(e.bar_pixels) : nlohmann::json()},
+                   {"cnr", ok ? finite(e.cnr) : nlohmann::json()},
+                   {"cnr_sigma", ok ? finite(e.cnr_sigma) : nlohmann::json()},
+                   {"detectable", e.detectable},
                    {"note", e.note.empty() ? nlohmann::json() : nlohmann::json(e.note)}});
   }
   j["elements"] = els;
@@ -103,17 +112,19 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
 }
 
 std::string measurement_csv_header() {
-  return "image,design,group,element,orientation,lp_per_mm,px_per_bar,m,m_sigma,status,resolved\n";
+  return "image,design,group,element,orientation,lp_per_mm,px_per_bar,m,m_sigma,status,resolved,cnr,cnr_sigma,"
+         "detectable\n";
 }
 
 std::string measurement_csv_rows(const Measurement& m, const MeasurementContext& ctx) {
   std::string out;
   for (const ElementResult& e : m.elements) {
     const bool ok = e.status == ElementStatus::ok;
-    out += fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", csv_cell(ctx.image), csv_cell(ctx.design), e.group,
-                       e.element, to_string(e.orientation), csv_number(e.lp_per_mm, 4), csv_number(e.px_per_bar, 3),
-                       ok ? csv_number(e.m, 5) : "", ok ? csv_number(e.m_sigma, 5) : "", to_string(e.status),
-                       e.resolved ? "true" : "false");
+    out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_cell(ctx.image), csv_cell(ctx.design),
+                       e.group, e.element, to_string(e.orientation), csv_number(e.lp_per_mm, 4),
+                       csv_number(e.px_per_bar, 3), ok ? csv_number(e.m, 5) : "", ok ? csv_number(e.m_sigma, 5) : "",
+                       to_string(e.status), e.resolved ? "true" : "false", ok ? csv_number(e.cnr, 4) : "",
+                       ok ? csv_number(e.cnr_sigma, 4) : "", e.detectable ? "true" : "false");
   }
   return out;
 }

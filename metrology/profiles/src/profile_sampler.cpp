@@ -1,6 +1,7 @@
 #include "tactres/profiles/profile_sampler.h"
 
 #include <algorithm>
+#include <tuple>
 #include <cmath>
 #include <stdexcept>
 
@@ -43,6 +44,28 @@ Strip patch_strip(const TargetLayout& layout, BarOrientation bars) {
 }
 
 namespace {
+
+// Weighted least-squares line var = a + b * level (both clamped at 0): the
+// photon-transfer relation of EMVA 1288 (read plus shot noise).
+struct VarianceLine {
+  double s_w = 0, s_x = 0, s_y = 0, s_xx = 0, s_xy = 0;
+  void add(double w, double level, double var) {
+    s_w += w;
+    s_x += w * level;
+    s_y += w * var;
+    s_xx += w * level * level;
+    s_xy += w * level * var;
+  }
+  std::pair<double, double> fit() const {
+    double a = s_w > 0 ? s_y / s_w : 0.0, b = 0.0;
+    const double det = s_w * s_xx - s_x * s_x;
+    if (s_w > 0 && det > 1e-12 * s_w * s_xx) {
+      b = std::max(0.0, (s_w * s_xy - s_x * s_y) / det);
+      a = std::max(0.0, (s_y - b * s_x) / s_w);
+    }
+    return {a, b};
+  }
+};
 
 bool u_along_x(const Strip& s) { return s.bars == BarOrientation::vertical_bars; }
 
@@ -102,6 +125,8 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   out.in_view = true;
   out.outline_px = {px[0], px[n - 1], px[n * n - 1], px[n * (n - 1)]};
   out.px_per_mm_across = plane.px_per_mm_across(s.center_mm, s.bars);
+  out.px_per_mm_along = plane.px_per_mm_across(
+      s.center_mm, s.bars == BarOrientation::vertical_bars ? BarOrientation::horizontal_bars : BarOrientation::vertical_bars);
   if (!(out.px_per_mm_across > 0)) {
     out.in_view = false;
     return out;
@@ -148,6 +173,7 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   // Along-bar moments: the light varies along the bars too (vignetting,
   // illumination), which is not noise; the noise estimate removes it.
   std::vector<double> sum_v(d.bin_count, 0), sum_vv(d.bin_count, 0), sum_xv(d.bin_count, 0);
+  std::vector<double> sum_xu(d.bin_count, 0), sum_uv(d.bin_count, 0);  // for the per-bin plane in (u, v)
   struct Sample {
     double u_mm, v_mm, value;
     int bin;
@@ -184,6 +210,8 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
       sum_v[b] += p.y;
       sum_vv[b] += p.y * p.y;
       sum_xv[b] += value * p.y;
+      sum_xu[b] += value * p.x;
+      sum_uv[b] += p.x * p.y;
       samples.push_back({p.x, p.y, value, b});
       ++d.count[b];
       ++out.pixels_used;
@@ -274,7 +302,7 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   // variances of the flattest half of the bins. Dark bars are much quieter
   // than bright ground under shot noise; one pooled variance would overstate
   // the noise of the bars and understate it on the ground.
-  double s_w = 0, s_x = 0, s_y = 0, s_xx = 0, s_xy = 0;
+  VarianceLine spread_line;
   for (size_t k = 0; k < (flatness.size() + 1) / 2; ++k) {
     const int b = flatness[k].second;
     const double n = d.count[b];
@@ -282,20 +310,32 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
     const double sxx = sum2[b] - sum[b] * sum[b] / n;
     const double svv = sum_vv[b] - sum_v[b] * sum_v[b] / n;
     const double sxv = sum_xv[b] - sum[b] * sum_v[b] / n;
-    const double var = std::max(0.0, svv > 0 ? sxx - sxv * sxv / svv : sxx) / (n - 2);
-    const double w = n - 2, x = d.value[b];
-    s_w += w;
-    s_x += w * x;
-    s_y += w * var;
-    s_xx += w * x * x;
-    s_xy += w * x * var;
+    spread_line.add(n - 2, d.value[b], std::max(0.0, svv > 0 ? sxx - sxv * sxv / svv : sxx) / (n - 2));
   }
-  double a = s_w > 0 ? s_y / s_w : 0.0, slope = 0.0;
-  const double det = s_w * s_xx - s_x * s_x;
-  if (s_w > 0 && det > 1e-12 * s_w * s_xx) {
-    slope = std::max(0.0, (s_w * s_xy - s_x * s_y) / det);
-    a = std::max(0.0, (s_y - slope * s_x) / s_w);
+  const auto [a, slope] = spread_line.fit();
+  const double s_w = spread_line.s_w, s_x = spread_line.s_x;
+  // The detectability noise model: the same bins, but the residual after a
+  // plane in (u, v) per bin, so that the signal change across a bin's
+  // quarter pixel does not count as noise (it inflates the spread above by
+  // ~12 % on simulated captures, where the noise is known).
+  VarianceLine residual_line;
+  for (size_t k = 0; k < (flatness.size() + 1) / 2; ++k) {
+    const int b = flatness[k].second;
+    const double n = d.count[b];
+    if (n < 5) continue;
+    const double sxx = sum2[b] - sum[b] * sum[b] / n;
+    const double suu = sum_uu[b] - sum_u[b] * sum_u[b] / n, svv = sum_vv[b] - sum_v[b] * sum_v[b] / n;
+    const double suv = sum_uv[b] - sum_u[b] * sum_v[b] / n;
+    const double sxu = sum_xu[b] - sum[b] * sum_u[b] / n, sxv = sum_xv[b] - sum[b] * sum_v[b] / n;
+    const double det = suu * svv - suv * suv;
+    // RSS = Sxx - c^T M^-1 c with M the (u, v) scatter and c = (Sxu, Sxv).
+    const double explained =
+        det > 1e-12 * (suu * svv + 1e-300) ? (svv * sxu * sxu - 2 * suv * sxu * sxv + suu * sxv * sxv) / det
+                                           : (svv > 0 ? sxv * sxv / svv : 0.0);
+    residual_line.add(n - 3, d.value[b], std::max(0.0, sxx - explained) / (n - 3));
   }
+  std::tie(out.noise_var_offset, out.noise_var_per_level) = residual_line.fit();
+  out.noise_dof = residual_line.s_w;
   const double floor_sd = 2e-3 * (level_n ? level / level_n : 1.0);
   const double mean_level = s_w > 0 ? s_x / s_w : 0.0;
   out.noise_sd = std::sqrt(std::max(0.0, a + slope * mean_level));
@@ -307,6 +347,10 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
 
   d.ideal = ideal_boxes(artwork, s, 0.25 * d.bin_mm);
   return out;
+}
+
+double SampledProfile::noise_sd_at(double level) const {
+  return std::sqrt(std::max(0.0, noise_var_offset + noise_var_per_level * std::max(0.0, level)));
 }
 
 bool is_complement_box(const ProfileData& d, const IdealBox& b) {

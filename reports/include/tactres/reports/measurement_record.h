@@ -1,6 +1,6 @@
 #pragma once
-// Reading measurement JSONs ("tactres.measurement/1", written by `tactres
-// measure`) back for reports. Only what reports show is read, and each of
+// Reading measurement JSONs ("tactres.measurement/2", and /1 from before the
+// detectability limit, written by `tactres measure`) back for reports. Only what reports show is read, and each of
 // those fields is checked strictly (type, range, consistency); errors name
 // the file and the field.
 //
@@ -29,6 +29,16 @@ struct LimitRecord {
   bool beyond_finest = false;   // every element resolved: lp_per_mm is a lower bound
 };
 
+// One orientation's two limits (profiles/detectability.h); `reported` in
+// MeasurementRecord is the coarser. A /1 file has only the optical limit:
+// then `detectability_known` is false and `optical` equals the reported one.
+struct LimitParts {
+  LimitRecord optical, detectability;
+  bool detectability_known = false;
+  bool light_limited = false;          // "limited_by": "light/noise"
+  std::optional<double> light_needed;  // exposure factor for detectability to reach the optical limit
+};
+
 // One element's contrast estimate (m is present only when status is "ok").
 struct ElementRecord {
   int group = 0, element = 1;
@@ -37,6 +47,8 @@ struct ElementRecord {
   std::string status;             // ok, low_signal, clipped, ... (measure.h, ElementStatus)
   std::optional<double> m, m_sigma;
   bool resolved = false;
+  std::optional<double> cnr, cnr_sigma;  // Rose CNR (/2 files, status ok)
+  bool detectable = false;
 };
 
 struct MeasurementRecord {
@@ -53,7 +65,9 @@ struct MeasurementRecord {
   // Camera sampling limit at the target plane; 0 when measure could not
   // compute it (e.g. no target found).
   double nyquist_h_lp_per_mm = 0.0, nyquist_v_lp_per_mm = 0.0;
-  LimitRecord horizontal, vertical;
+  LimitRecord horizontal, vertical;       // the reported limits
+  LimitParts horizontal_parts, vertical_parts;
+  double detectability_k = 0.0;           // 0 in a /1 file
   std::vector<ElementRecord> elements;
 
   // measure --out-dir writes <stem>.overlay.png beside <stem>.json.

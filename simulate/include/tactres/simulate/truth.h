@@ -1,5 +1,6 @@
 #pragma once
-// The true answer for a simulated capture ("tactres.truth/1").
+// The true answer for a simulated capture ("tactres.truth/2"; /2 added the
+// detectability limit and each element's true CNR).
 //
 // m(f) of the whole chain for every element. Where the chain is linear, it
 // is the product of the effects' transfer functions at the element's
@@ -13,8 +14,18 @@
 // linear: there m is computed numerically as the sine response of the
 // shading at the relief's amplitude, relative to its small-signal response,
 // and the element says "analytic": false.
+//
+// Detectability (profiles/detectability.h), when the scene has a sensor:
+// each element's true Rose CNR from the scene's exposure and the EMVA 1288
+// model at the element's centre: the signal is the bars' fundamental
+// peak-to-peak in DN (true m, the level step the target and the lights give
+// there, times illumination and vignetting), the noise the model's temporal
+// sigma in DN at the element's mean level, the pixels those of one bar.
+// Shading uses the linearised Lambert coefficients. Without a sensor the
+// capture is noise-free: no CNR, and the reported limit is the optical one.
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,12 +33,13 @@
 
 #include "tactres/camera/camera_model.h"
 #include "tactres/profiles/criterion.h"
+#include "tactres/profiles/detectability.h"
 #include "tactres/simulate/scene.h"
 #include "tactres/targets/layout.h"
 
 namespace tactres {
 
-inline constexpr const char* kTruthSchema = "tactres.truth/1";
+inline constexpr const char* kTruthSchema = "tactres.truth/2";
 
 struct TruthElement {
   int group = 0, element = 1;
@@ -38,11 +50,14 @@ struct TruthElement {
   double px_per_bar = 0;  // bar width in pixels across the bars
   Vec2 center_px;
   bool in_view = true;
+  std::optional<double> cnr;  // absent without a sensor (noise-free)
 };
 
 struct Truth {
   std::vector<TruthElement> elements;
-  Limit horizontal, vertical;
+  Limit horizontal, vertical;  // reported: the coarser of the two parts
+  LimitBreakdown horizontal_parts, vertical_parts;
+  DetectabilityCriterion detectability;
   double nyquist_h_lp_per_mm = 0, nyquist_v_lp_per_mm = 0;  // at the target centre
   bool seen_from_behind = false;
 };

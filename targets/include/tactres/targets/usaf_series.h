@@ -6,6 +6,7 @@
 namespace tactres {
 
 constexpr int kUsafElementsPerGroup = 6;
+constexpr double kUsafBarLengthInWidths = 5.0;  // MIL-STD-150A: a bar is 5 widths long
 
 double usaf_lp_per_mm(int group, int element);
 double usaf_bar_width_mm(int group, int element);  // 1 / (2 lp/mm)

@@ -52,8 +52,11 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
                      const MeasureOptions& options, std::pair<double, double>& warm_lsf,
                      const ProfilePrepare& prepare = {}, bool model_mismatch = false);
 
-// The limits per orientation under `criterion`, from M.elements, into
-// M.horizontal / M.vertical, and each element's `resolved`. An ok element
+// The limits per orientation from M.elements: the optical limit under
+// `criterion`, the detectability limit under `detectability`, both into
+// M.horizontal_parts / M.vertical_parts and the coarser (the reported one)
+// into M.horizontal / M.vertical; and each element's `resolved` and
+// `detectable`. An ok element
 // counts by the criterion; an unmeasured one (is_unmeasured) is skipped by
 // the chain and bridged when both neighbours are resolved (criterion.h);
 // any other status counts as unresolved. In a chart photograph
@@ -61,6 +64,7 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
 // groups and cuts others. Layout mode, which frames the whole target,
 // counts it as unresolved instead.
 bool is_unmeasured(ElementStatus s, bool chart_photograph);
-void decide_limits(Measurement& M, const Criterion& criterion, bool chart_photograph);
+void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,
+                   bool chart_photograph);
 
 }  // namespace tactres

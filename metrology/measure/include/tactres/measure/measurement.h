@@ -17,6 +17,7 @@
 #include "tactres/locate/fiducials.h"
 #include "tactres/locate/pose.h"
 #include "tactres/profiles/criterion.h"
+#include "tactres/profiles/detectability.h"
 #include "tactres/profiles/profile_fit.h"
 #include "tactres/profiles/profile_sampler.h"
 #include "tactres/targets/layout.h"
@@ -45,6 +46,7 @@ struct MeasureOptions {
   int pose_boundary_points = 48;    // disc outline points in the pose model
   double max_bins_per_bar = 10;     // coarse elements: bins no finer than w / this
   Criterion criterion;
+  DetectabilityCriterion detectability;
   double min_px_per_bar = 1.5;      // below: below_sampling_limit
   double aliasing_chi2 = 16;        // reduced chi^2 above which a fine element is aliased
   double max_m_sigma = 0.25;        // above: low_signal
@@ -63,8 +65,17 @@ struct ElementResult {
   double lp_per_mm = 0, px_per_bar = 0;
   double m = 0, m_sigma = 0;  // 0 when the status is not ok
   double beta = 0, chi2_reduced = 0;
+  // Detectability (profiles/detectability.h), set when the status is ok:
+  // the bars' peak-to-peak signal and the per-pixel noise at the element's
+  // mean level, both in linear image units; the pixels one bar covers; the
+  // Rose CNR and its standard error.
+  double signal = 0, noise_sd = 0, bar_pixels = 0;
+  double mean_level = 0;  // the level noise_sd is taken at (albedo: halfway between bar and gap)
+  double cnr = 0, cnr_sigma = 0;
+  double noise_shot_fraction = 0;  // share of noise_sd^2 that scales with the light (shot noise)
   ElementStatus status = ElementStatus::fit_failed;
   bool resolved = false;
+  bool detectable = false;
   std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say
   std::array<Vec2, 4> outline_px{};
   bool outline_valid = false;
@@ -120,7 +131,13 @@ struct Measurement {
   TransferCheck transfer_check; // what the reference patch said about that curve
   std::vector<std::string> warnings;  // for people: what to check although the capture was measured
   std::vector<ElementResult> elements;
+  // The reported limit per orientation (the coarser of the optical and the
+  // detectability limit), and both parts with the factor that limits.
   Limit horizontal, vertical;
+  LimitBreakdown horizontal_parts, vertical_parts;
+  const LimitBreakdown& parts(BarOrientation o) const {
+    return o == BarOrientation::horizontal_bars ? horizontal_parts : vertical_parts;
+  }
   double nyquist_h_lp_per_mm = 0, nyquist_v_lp_per_mm = 0;
   std::vector<std::pair<std::string, double>> stage_seconds;
 };

@@ -1,5 +1,5 @@
 #pragma once
-// Measurement outputs: JSON ("tactres.measurement/1"), CSV (one row per
+// Measurement outputs: JSON ("tactres.measurement/2"), CSV (one row per
 // element and orientation), an overlay PNG, and JUnit XML for CI. All are
 // written atomically. Absent values are JSON null / empty CSV cells, never
 // NaN or inf.
@@ -17,7 +17,12 @@
 
 namespace tactres {
 
-inline constexpr const char* kMeasurementSchema = "tactres.measurement/1";
+// /2 added the detectability limit: each limits.<orientation> block is the
+// reported limit (same fields as /1) plus "limited_by", "optical" and
+// "detectability"; elements gained signal, noise_sd, pixels_per_bar, cnr,
+// cnr_sigma and detectable. /1 files still read (reports/).
+inline constexpr const char* kMeasurementSchema = "tactres.measurement/2";
+inline constexpr const char* kMeasurementSchemaV1 = "tactres.measurement/1";
 
 struct MeasurementContext {
   std::string image;            // the capture's path as given

@@ -40,12 +40,21 @@ struct SampledProfile {
   ProfileData data;
   bool in_view = false;
   double px_per_mm_across = 0;      // image scale across the bars at the centre
+  double px_per_mm_along = 0;       // image scale along the bars at the centre
   int pixels_used = 0;
   int pixels_clipped = 0;           // at or beyond the clip level
   int pixels_masked = 0;            // non-finite (masked) pixels in the strip
   std::array<Vec2, 4> outline_px{}; // strip corners in the image, for overlays
   double map_error_px = 0;          // residual of the local pixel -> target map
-  double noise_sd = 0;              // per-pixel noise estimated from flat bins
+  double noise_sd = 0;              // per-pixel noise estimated from flat bins, at their mean level
+  // The per-pixel noise model var(level) = noise_var_offset + noise_var_per_level * level
+  // (read plus shot noise, EMVA 1288), fitted to the scatter along the bars
+  // in the flattest bins; `noise_dof`, the degrees of freedom behind it.
+  // A single frame cannot tell temporal noise from fixed texture along the
+  // bars (a gel's grain, print dots): both enter, so on a textured target
+  // this is an upper bound of the temporal noise.
+  double noise_var_offset = 0, noise_var_per_level = 0, noise_dof = 0;
+  double noise_sd_at(double level) const;
 };
 
 // `clip_level` <= 0 disables clipping detection (float images).
