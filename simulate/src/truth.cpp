@@ -150,8 +150,10 @@ void decide_true_limits(Truth& t, const Criterion& criterion) {
 }
 }  // namespace
 
-Truth compute_truth(const Scene& scene, const TargetLayout& layout, const CameraModel& camera) {
+Truth compute_truth(const Scene& scene, const TargetLayout& layout, const CameraModel& camera,
+                    const DetectabilityCriterion& detectability) {
   Truth t;
+  t.detectability = detectability;
   const TargetView view(camera, scene.rt_camera_from_target(layout));
   t.seen_from_behind = view.seen_from_behind();
   const PsfOptions* psf = scene.find<PsfOptions>();

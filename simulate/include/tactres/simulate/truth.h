@@ -62,7 +62,10 @@ struct Truth {
   bool seen_from_behind = false;
 };
 
-Truth compute_truth(const Scene& scene, const TargetLayout& layout, const CameraModel& camera);
+// `detectability`: the Rose threshold k of the true detectability limit
+// (its significance test is dropped: the truth is exact).
+Truth compute_truth(const Scene& scene, const TargetLayout& layout, const CameraModel& camera,
+                    const DetectabilityCriterion& detectability = {});
 
 nlohmann::json truth_to_json(const Truth& truth, const Scene& scene, const std::string& image_name);
 
