@@ -111,8 +111,11 @@ void set_true_cnr(Truth& t, const Scene& scene, const TargetLayout& layout, cons
     const double anisotropy = view.px_per_mm_across(c, along) / view.px_per_mm_across(c, te.orientation);
     const double signal_dn =
         dn_per_input * bar_signal_ptp(te.m, levels->contrast, levels->ground, levels->signature, te.lp_per_mm);
-    const double noise_dn =
-        sensor_sigma_dn(*sensor, element_mean_level(levels->contrast, levels->ground, levels->signature));
+    const double level = element_mean_level(levels->contrast, levels->ground, levels->signature);
+    const double noise_dn = sensor_sigma_dn(*sensor, level);
+    // Shot noise: K^2 eta mu_p electrons' worth of variance (EMVA 1288).
+    const double gain = sensor->system_gain_dn_per_e();
+    te.shot_fraction = gain * dn_per_input * std::max(level, 0.0) / (noise_dn * noise_dn);
     te.cnr = rose_cnr(signal_dn, pixels_per_bar(te.px_per_bar, anisotropy), noise_dn);
   }
 }
@@ -134,6 +137,7 @@ void decide_true_limits(Truth& t, const Criterion& criterion) {
       if (te.orientation == o) {
         m.push_back({te.group, te.element, te.lp_per_mm, te.m, 0.0, te.in_view});
         cnr.push_back({te.group, te.element, te.lp_per_mm, te.cnr.value_or(0.0), 0.0, te.in_view && te.cnr});
+        cnr.back().shot_fraction = te.shot_fraction;
         noise_free = noise_free && !te.cnr;
       }
     auto by_f = [](const auto& a, const auto& b) { return a.lp_per_mm < b.lp_per_mm; };
@@ -143,6 +147,7 @@ void decide_true_limits(Truth& t, const Criterion& criterion) {
     // Noise-free: nothing limits detection, so the optics alone decide.
     LimitBreakdown parts = noise_free ? LimitBreakdown{optical, optical, LimitingFactor::optics}
                                       : combine_limits(optical, find_detectability_limit(cnr, t.detectability));
+    if (!noise_free) parts.light_needed = light_needed_factor(cnr, optical, t.detectability);
     const bool h = o == BarOrientation::horizontal_bars;
     (h ? t.horizontal_parts : t.vertical_parts) = parts;
     (h ? t.horizontal : t.vertical) = parts.reported();

@@ -51,6 +51,7 @@ struct TruthElement {
   Vec2 center_px;
   bool in_view = true;
   std::optional<double> cnr;  // absent without a sensor (noise-free)
+  double shot_fraction = 0;   // share of the noise variance that is shot noise
 };
 
 struct Truth {
