@@ -198,6 +198,7 @@ struct TruthElement {
   double lp_per_mm = 0;
   double m = 0;
   double px_per_bar = 0;
+  double px_per_bar_along = 0;  // the bar width measured in pixels along the bars' length
   Vec2 center_px{};
   bool in_view = false;
 };
@@ -223,6 +224,15 @@ struct Truth {
 
 Truth make_truth(const Layout& layout, const Camera& camera, const Pose& pose, double sigma_mm,
                  double threshold = 0.1);
+// The true detectability limit of an albedo capture with constant Gaussian
+// noise, written here from docs/CONVENTIONS.md ("Two limits") alone: each
+// element's CNR = (4 / pi) m |level step| sqrt(N) / noise_sigma with N = 5
+// px_per_bar px_per_bar_along (a bar is 5 widths long); the finest element
+// of the chain of CNR >= k, and where CNR crosses k between it and the next
+// one, ln CNR linear in f^2. 0 when nothing is detectable or everything is.
+double detectability_limit_lp_per_mm(const Truth& truth, const std::string& orientation, double level_step,
+                                     double noise_sigma, double k);
+
 nlohmann::json truth_json(const Truth& truth, const Pose& pose, const Scene& scene, const Camera& camera,
                           const Layout& layout);
 

@@ -77,6 +77,7 @@ Truth make_truth(const Layout& layout, const Camera& camera, const Pose& pose, d
     // Horizontal bars resolve detail along y, vertical bars along x.
     const Vec2 across = le.horizontal_bars ? Vec2{0, 1} : Vec2{1, 0};
     e.px_per_bar = le.bar_width_mm * px_per_mm_along(camera, T, c_mm, across);
+    e.px_per_bar_along = le.bar_width_mm * px_per_mm_along(camera, T, c_mm, Vec2{across[1], across[0]});
     e.center_px = camera.project(T.apply({c_mm[0], c_mm[1], 0}));
     e.in_view = true;
     for (const RectMm& b : le.bars_mm)
@@ -89,6 +90,26 @@ Truth make_truth(const Layout& layout, const Camera& camera, const Pose& pose, d
   truth.horizontal_bars = limit_of(by_orientation["horizontal_bars"], sigma_mm, threshold);
   truth.vertical_bars = limit_of(by_orientation["vertical_bars"], sigma_mm, threshold);
   return truth;
+}
+
+double detectability_limit_lp_per_mm(const Truth& truth, const std::string& orientation, double level_step,
+                                     double noise_sigma, double k) {
+  std::vector<const TruthElement*> els;
+  for (const TruthElement& e : truth.elements)
+    if (e.orientation == orientation) els.push_back(&e);
+  std::sort(els.begin(), els.end(), [](const TruthElement* a, const TruthElement* b) { return a->lp_per_mm < b->lp_per_mm; });
+  auto cnr = [&](const TruthElement* e) {
+    return 4 / M_PI * e->m * std::abs(level_step) * std::sqrt(5 * e->px_per_bar * e->px_per_bar_along) / noise_sigma;
+  };
+  for (size_t i = 0; i + 1 < els.size(); ++i) {
+    if (cnr(els[i]) < k) return 0;  // nothing detectable before it
+    const double c1 = cnr(els[i + 1]);
+    if (c1 >= k) continue;
+    const double l0 = std::log(cnr(els[i])), l1 = std::log(std::max(c1, 1e-12)), lk = std::log(k);
+    const double s0 = els[i]->lp_per_mm * els[i]->lp_per_mm, s1 = els[i + 1]->lp_per_mm * els[i + 1]->lp_per_mm;
+    return std::sqrt(s0 + (l0 - lk) / (l0 - l1) * (s1 - s0));
+  }
+  return 0;
 }
 
 nlohmann::json truth_json(const Truth& truth, const Pose& pose, const Scene& scene, const Camera& camera,
