@@ -45,17 +45,13 @@ double snr_db_setting() {
 }
 
 Coverage coverage_of(const std::string& case_name, double snr_db) {
-  CaseSpec spec = issue_case(case_name);
-  spec.scene.snr_db = 0;
   TempDir dir("coverage");
-  const Layout& layout = default_layout();
-  const Camera camera = camera_named(spec.camera);
-  const fs::path camera_model = dir.path / (spec.camera + ".cameramodel");
-  camera.write_cameramodel(camera_model.string());
-  const Image clean = render_image(layout, camera, spec.pose, spec.scene);
-  const Truth truth = make_truth(layout, camera, spec.pose, spec.scene.sigma_mm);
-  spec.scene.snr_db = snr_db;
-  const double sigma = noise_sigma(layout, spec.scene);
+  const CleanCase cc = render_clean_case(case_name, dir.path, snr_db);
+  const CaseSpec& spec = cc.spec;
+  const Truth& truth = cc.truth;
+  const Image& clean = cc.clean;
+  const fs::path& camera_model = cc.camera_model;
+  const double sigma = cc.noise_sigma;
 
   Coverage c;
   for (int seed = 1; seed <= seed_count(); ++seed) {

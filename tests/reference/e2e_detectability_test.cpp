@@ -14,25 +14,17 @@ using namespace reference::e2e;
 
 TEST_CASE("detectability limit at 20 dB, k = 20: light-limited, within 3 percent of the independent truth") {
   constexpr double kRose = 20;
-  CaseSpec spec = issue_case("20 dB noise");
-  const double snr_db = spec.scene.snr_db;
-  spec.scene.snr_db = 0;
   TempDir dir("detectability");
-  const Layout& layout = default_layout();
-  const Camera camera = camera_named(spec.camera);
-  const fs::path camera_model = dir.path / (spec.camera + ".cameramodel");
-  camera.write_cameramodel(camera_model.string());
-  const Image clean = render_image(layout, camera, spec.pose, spec.scene);
-  const Truth truth = make_truth(layout, camera, spec.pose, spec.scene.sigma_mm);
-  spec.scene.snr_db = snr_db;
-  const double step = level_step(layout, spec.scene), sigma = noise_sigma(layout, spec.scene);
+  const CleanCase cc = render_clean_case("20 dB noise", dir.path, issue_case("20 dB noise").scene.snr_db);
+  const Truth& truth = cc.truth;
+  const double step = level_step(default_layout(), cc.spec.scene), sigma = cc.noise_sigma;
   int covered = 0, samples = 0;
   for (int seed = 1; seed <= 3; ++seed) {
-    Image noisy = clean;
+    Image noisy = cc.clean;
     add_gaussian_noise(noisy, sigma, 500 + seed);
-    const fs::path image = dir.path / ("capture" + std::to_string(seed) + spec.extension);
+    const fs::path image = dir.path / ("capture" + std::to_string(seed) + cc.spec.extension);
     write_image(image.string(), noisy);
-    const CaseResult r = measure_and_compare("detectability seed " + std::to_string(seed), image, camera_model, truth,
+    const CaseResult r = measure_and_compare("detectability seed " + std::to_string(seed), image, cc.camera_model, truth,
                                              dir.path / ("capture" + std::to_string(seed) + ".json"),
                                              "--detectability-k 20");
     REQUIRE(r.usable);

@@ -299,4 +299,19 @@ std::string summary_line(const CaseResult& r) {
   return buf;
 }
 
+CleanCase render_clean_case(const std::string& name, const fs::path& dir, double snr_db) {
+  CleanCase c;
+  c.spec = issue_case(name);
+  c.spec.scene.snr_db = 0;
+  const Layout& layout = default_layout();
+  const Camera camera = camera_named(c.spec.camera);
+  c.camera_model = dir / (c.spec.camera + ".cameramodel");
+  camera.write_cameramodel(c.camera_model.string());
+  c.clean = render_image(layout, camera, c.spec.pose, c.spec.scene);
+  c.truth = make_truth(layout, camera, c.spec.pose, c.spec.scene.sigma_mm);
+  c.spec.scene.snr_db = snr_db;
+  c.noise_sigma = noise_sigma(layout, c.spec.scene);
+  return c;
+}
+
 }  // namespace reference::e2e

@@ -40,6 +40,18 @@ std::vector<CaseSpec> issue_cases();
 const CaseSpec& issue_case(const std::string& name);
 Camera camera_named(const std::string& name);
 
+// A case rendered once without noise, for seeded noisy repeats: its camera
+// model written into `dir`, the clean image, the truth, and the noise sigma
+// of the case's own SNR.
+struct CleanCase {
+  CaseSpec spec;
+  fs::path camera_model;
+  Image clean;
+  Truth truth;
+  double noise_sigma = 0;
+};
+CleanCase render_clean_case(const std::string& name, const fs::path& dir, double snr_db);
+
 // One orientation's measured limit, as in the measurement JSON.
 struct MeasuredLimit {
   std::optional<double> interpolated_lp_per_mm;
