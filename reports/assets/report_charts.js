@@ -24,7 +24,9 @@
           meta.data.forEach(function (el, i) {
             var s = ds.errorBars[i], v = valueOf(ds.data[i]);
             if (v === null || !(s > 0)) return;
-            var top = y.getPixelForValue(v + s), bottom = y.getPixelForValue(v - s);
+            // On a log axis (CNR) a lower end at or below 0 has no pixel: the bar runs off the bottom.
+            var top = y.getPixelForValue(v + s);
+            var bottom = y.type === 'logarithmic' && v - s <= 0 ? area.bottom : y.getPixelForValue(v - s);
             var cap = el.width ? Math.max(3, Math.min(7, el.width / 5)) : 3;
             ctx.strokeStyle = ds.errorBarColor || '#222';
             ctx.lineWidth = ds.errorBarWidth || 1.2;
@@ -159,63 +161,117 @@
               var o = ds[c.dataIndex][c.dataset.label === 'Horizontal bars' ? 'h' : 'v'];
               if (!o || o.value === null) return c.dataset.label + ': none';
               return c.dataset.label + ': ' + fmt(o.value, 2) + (o.sigma ? ' ± ' + fmt(o.sigma, 2) : '') + ' lp/mm' +
-                (o.pct === null ? '' : ' (' + fmt(o.pct, 1) + '% of raw CMOS)') + (o.interpolated ? '' : ', discrete');
+                (o.pct === null ? '' : ' (' + fmt(o.pct, 1) + '% of raw CMOS)') + (o.interpolated ? '' : ', discrete') +
+                (o.limited_by ? ', limited by ' + o.limited_by : '');
             } } }
           }
         }
       });
     })();
 
-    // 2, 3. m(f) per press, one chart per orientation, criterion line.
-    function curveChart(id, key) {
-      var datasets = [], fmin = Infinity, fmax = 0, mmin = 0;
+    // Frequency axis shared by the m(f) and CNR(f) charts: log scale, round ticks.
+    function frequencyAxis(fmin, fmax) {
+      return { type: 'logarithmic', min: fmin / 1.12, max: fmax * 1.12,
+               title: { display: true, text: 'spatial frequency (lp/mm, log scale)' },
+               ticks: { autoSkip: false, callback: function (v) {
+                 var r = Math.round(v * 1000) / 1000;
+                 return [0.5, 1, 2, 3, 5, 10, 20, 30, 50, 100, 200].indexOf(r) >= 0 ? String(r) : '';
+               } } };
+    }
+
+    // One dataset per usable press, one colour per design; spec.value(p) and
+    // spec.sigma(p) read a point's value and 1-sigma, spec.keep(p) filters.
+    function pressDatasets(key, spec) {
+      var datasets = [];
       data.curves.forEach(function (c) {
-        var pts = c[key];
+        var pts = c[key].filter(spec.keep);
         if (!pts.length) return;
         var colour = c.reference ? '#111111' : colourOf[c.design];
-        pts.forEach(function (p) { fmin = Math.min(fmin, p.f); fmax = Math.max(fmax, p.f); mmin = Math.min(mmin, p.m - p.s); });
         datasets.push({
           label: c.reference ? c.design + ' (raw CMOS)' : c.design,
-          data: pts.map(function (p) { return { x: p.f, y: p.m }; }),
+          data: pts.map(function (p) { return { x: p.f, y: spec.value(p) }; }),
           points: pts, file: c.file,
-          errorBars: pts.map(function (p) { return p.s; }), errorBarColor: colour, errorBarWidth: 1,
+          errorBars: pts.map(spec.sigma), errorBarColor: colour, errorBarWidth: 1,
           borderColor: colour, backgroundColor: colour, showLine: true, tension: 0,
           borderWidth: c.reference ? 2.4 : 1.5, borderDash: c.reference ? [6, 3] : [],
           pointRadius: 2.2, pointHoverRadius: 4, hideInLegend: !c.first_of_design, order: c.reference ? 0 : 1
         });
       });
+      return datasets;
+    }
+
+    // 2-5. Per press and orientation: m(f) with the criterion line, and
+    // beside it (measurement/2) CNR(f) on a log axis with the Rose k line.
+    function curveChart(id, key, spec) {
+      var canvas = document.getElementById(id);
+      if (!canvas) return;  // e.g. no CNR charts for measurement/1 inputs
+      var datasets = pressDatasets(key, spec), fmin = Infinity, fmax = 0;
+      datasets.forEach(function (d) {
+        d.points.forEach(function (p) { fmin = Math.min(fmin, p.f); fmax = Math.max(fmax, p.f); });
+      });
       if (!datasets.length) { fmin = 1; fmax = 10; }
-      var lines = [{ y: data.threshold, color: '#b3261e', dash: [6, 4], align: 'left', label: 'criterion m = ' + data.threshold }];
       var n = key === 'h' ? nyq.h : nyq.v;
+      var lines = spec.lines.slice();
       if (n > 0) lines.push({ x: n, color: '#6b7280', dash: [2, 3], label: 'Nyquist ' + fmt(n, 2) });
-      new Chart(document.getElementById(id), {
+      new Chart(canvas, {
         type: 'scatter',
         data: { datasets: datasets },
         plugins: [errorBars, refLines],
         options: {
-          scales: {
-            x: { type: 'logarithmic', min: fmin / 1.12, max: Math.max(fmax, n || 0) * 1.12,
-                 title: { display: true, text: 'spatial frequency (lp/mm, log scale)' },
-                 ticks: { autoSkip: false, callback: function (v) {
-                   var r = Math.round(v * 1000) / 1000;
-                   return [0.5, 1, 2, 3, 5, 10, 20, 30, 50, 100, 200].indexOf(r) >= 0 ? String(r) : '';
-                 } } },
-            y: { min: Math.min(0, Math.floor(mmin * 10) / 10), max: 1.05, title: { display: true, text: 'modulation m(f)' } }
-          },
+          scales: { x: frequencyAxis(fmin, Math.max(fmax, n || 0)), y: spec.yAxis(datasets) },
           plugins: {
             legend: { position: 'top', labels: { boxWidth: 14, filter: function (item, d) {
               return !d.datasets[item.datasetIndex].hideInLegend; } } },
             refLines: { lines: lines },
             tooltip: { callbacks: { label: function (c) {
               var p = c.dataset.points[c.dataIndex];
-              return c.dataset.label + ': G' + p.g + 'E' + p.e + ' ' + fmt(p.f, 2) + ' lp/mm, m = ' + fmt(p.m, 3) + ' ± ' + fmt(p.s, 3);
+              return c.dataset.label + ': G' + p.g + 'E' + p.e + ' ' + fmt(p.f, 2) + ' lp/mm, ' + spec.text(p);
             } } }
           }
         }
       });
     }
-    curveChart('chart-mtf-h', 'h');
-    curveChart('chart-mtf-v', 'v');
+
+    var mSpec = {
+      keep: function () { return true; },
+      value: function (p) { return p.m; }, sigma: function (p) { return p.s; },
+      lines: [{ y: data.threshold, color: '#b3261e', dash: [6, 4], align: 'left', label: 'criterion m = ' + data.threshold }],
+      yAxis: function (datasets) {
+        var mmin = 0;
+        datasets.forEach(function (d) { d.points.forEach(function (p) { mmin = Math.min(mmin, p.m - p.s); }); });
+        return { min: Math.min(0, Math.floor(mmin * 10) / 10), max: 1.05, title: { display: true, text: 'modulation m(f)' } };
+      },
+      text: function (p) { return 'm = ' + fmt(p.m, 3) + ' ± ' + fmt(p.s, 3); }
+    };
+
+    // CNR spans decades (a bright coarse element ~1000, a fine one ~1): a
+    // log axis in whole decades, the k line inside it. A CNR of 0 has no
+    // place on it and is left out (its element is undetectable anyway).
+    var k = data.detectability_k;
+    var cnrSpec = {
+      keep: function (p) { return p.c !== null && p.c > 0; },
+      value: function (p) { return p.c; }, sigma: function (p) { return p.cs; },
+      lines: k ? [{ y: k, color: '#b3261e', dash: [6, 4], align: 'left', label: 'Rose threshold k = ' + k }] : [],
+      yAxis: function (datasets) {
+        var lo = k || 1, hi = k || 1;
+        datasets.forEach(function (d) { d.points.forEach(function (p) { lo = Math.min(lo, p.c); hi = Math.max(hi, p.c); }); });
+        return { type: 'logarithmic',
+                 min: Math.pow(10, Math.floor(Math.log10(lo / 1.5))), max: Math.pow(10, Math.ceil(Math.log10(hi * 1.5))),
+                 title: { display: true, text: 'contrast-to-noise ratio CNR (log scale)' },
+                 // Full grid lines only at the labelled 1-3-10 ticks: nine per decade read as graph paper.
+                 grid: { color: function (c) { return c.tick && c.tick.label ? 'rgba(0,0,0,0.12)' : 'rgba(0,0,0,0.035)'; } },
+                 ticks: { autoSkip: false, callback: function (v) {
+                   var e = Math.log10(v), m = v / Math.pow(10, Math.floor(e + 1e-9));
+                   return [1, 3].some(function (x) { return Math.abs(m - x) < 1e-6; }) ? String(+v.toPrecision(3)) : '';
+                 } } };
+      },
+      text: function (p) { return 'CNR = ' + fmt(p.c, 1) + (p.cs !== null ? ' ± ' + fmt(p.cs, 1) : ''); }
+    };
+
+    curveChart('chart-mtf-h', 'h', mSpec);
+    curveChart('chart-mtf-v', 'v', mSpec);
+    curveChart('chart-cnr-h', 'h', cnrSpec);
+    curveChart('chart-cnr-v', 'v', cnrSpec);
 
     // Charts follow the page size when printing, and back.
     ['beforeprint', 'afterprint'].forEach(function (ev) {

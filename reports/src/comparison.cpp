@@ -96,6 +96,22 @@ void check_same_criterion(const std::vector<const MeasurementRecord*>& all) {
         first_design->significance_z));
 }
 
+// The detectability limits must share one Rose k to be compared. A /1 file
+// (k 0) has no detectability limit and so no k to disagree with.
+double common_detectability_k(const std::vector<const MeasurementRecord*>& all) {
+  const MeasurementRecord* first = nullptr;
+  for (const MeasurementRecord* r : all) {
+    if (!(r->detectability_k > 0)) continue;
+    if (!first) first = r;
+    else if (r->detectability_k != first->detectability_k)
+      throw std::invalid_argument(fmt::format(
+          "mixed criteria: {} used detectability k {} but {} k {}; detectability limits from different Rose "
+          "thresholds are not comparable: re-measure with one --detectability-k",
+          first->path.string(), first->detectability_k, r->path.string(), r->detectability_k));
+  }
+  return first ? first->detectability_k : 0.0;
+}
+
 double mean(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x;
@@ -147,6 +163,35 @@ std::optional<double> percent(std::optional<double> value, std::optional<double>
   return 100.0 * *value / *reference;
 }
 
+// The two limits of one orientation over a row's usable presses, with
+// percentages of the reference's reported value `ref_value`.
+OrientationParts summarise_parts(const std::vector<const LimitParts*>& presses, std::optional<double> ref_value) {
+  OrientationParts p;
+  if (presses.empty()) return p;
+  std::vector<const LimitRecord*> optical, detectability;
+  std::vector<double> light;
+  for (const LimitParts* press : presses) {
+    optical.push_back(&press->optical);  // a /1 press: its reported limit
+    if (!press->detectability_known) continue;
+    detectability.push_back(&press->detectability);
+    p.light_limited_presses += press->light_limited ? 1 : 0;
+    // measure gives no factor rather than 0 when no light is enough
+    // (detectability.h): a non-positive one is not a figure to show.
+    if (press->light_needed && *press->light_needed > 0) light.push_back(*press->light_needed);
+  }
+  p.optical = summarise(optical);
+  p.optical.pct_of_reference = percent(p.optical.value_lp_per_mm(), ref_value);
+  if (detectability.size() != presses.size()) return p;  // some press is /1: unknown
+  p.detectability = summarise(detectability);
+  p.detectability->pct_of_reference = percent(p.detectability->value_lp_per_mm(), ref_value);
+  const int n = int(presses.size());
+  p.limited_by = p.light_limited_presses == 0   ? LimitedBy::optics
+                 : p.light_limited_presses == n ? LimitedBy::light_noise
+                                                : LimitedBy::mixed;
+  if (light.size() == presses.size()) p.light_needed_factor = *std::max_element(light.begin(), light.end());
+  return p;
+}
+
 std::optional<double> mean_hv(const DesignRow& r) {
   const auto h = r.horizontal.value_lp_per_mm(), v = r.vertical.value_lp_per_mm();
   if (!h || !v) return std::nullopt;
@@ -160,12 +205,84 @@ double mean_hv_sigma(const DesignRow& r) {
                           r.vertical.interp_sigma_lp_per_mm.value_or(0.0));
 }
 
+// Fills `row`'s limits, parts and percentages from its usable presses
+// (non-empty); `ref` is the reference row, or `row` itself when it is the
+// reference (its horizontal and vertical are set before they are read).
+void aggregate_row(DesignRow& row, const std::vector<const MeasurementRecord*>& usable, const DesignRow& ref) {
+  std::vector<const LimitRecord*> h, v;
+  std::vector<const LimitParts*> h_parts, v_parts;
+  for (const MeasurementRecord* m : usable) {
+    h.push_back(&m->horizontal);
+    v.push_back(&m->vertical);
+    h_parts.push_back(&m->horizontal_parts);
+    v_parts.push_back(&m->vertical_parts);
+  }
+  row.n = int(usable.size());
+  row.horizontal = summarise(h);
+  row.vertical = summarise(v);
+  const std::optional<double> ref_h = ref.horizontal.value_lp_per_mm(), ref_v = ref.vertical.value_lp_per_mm();
+  row.horizontal.pct_of_reference = percent(row.horizontal.value_lp_per_mm(), ref_h);
+  row.vertical.pct_of_reference = percent(row.vertical.value_lp_per_mm(), ref_v);
+  row.horizontal_parts = summarise_parts(h_parts, ref_h);
+  row.vertical_parts = summarise_parts(v_parts, ref_v);
+  const std::optional<double> light_h = row.horizontal_parts.light_needed_factor,
+                              light_v = row.vertical_parts.light_needed_factor;
+  if (light_h && light_v) row.light_needed_factor = std::max(*light_h, *light_v);
+  row.mean_hv_lp_per_mm = mean_hv(row);
+  row.mean_pct_of_reference = percent(row.mean_hv_lp_per_mm, ref.mean_hv_lp_per_mm);
+}
+
+void add_reference_notes(Comparison& c) {
+  const DesignRow& ref = c.reference_row;
+  for (const auto& [name, s] : {std::pair{"horizontal", &ref.horizontal}, std::pair{"vertical", &ref.vertical}}) {
+    if (!s->resolved_any)
+      c.notes.push_back(fmt::format("The reference resolved no {}-bar element: {} percentages are not available.",
+                                    name, name));
+    else if (s->beyond_finest)
+      c.notes.push_back(fmt::format(
+          "The reference resolved every {}-bar element: its {} limit ({:.2f} lp/mm) is a lower bound, so the "
+          "{} percentages are upper bounds.",
+          name, name, s->lp_per_mm, name));
+    else if (!s->interp_lp_per_mm)
+      c.notes.push_back(fmt::format("The reference has no interpolated {} limit: {} percentages use its discrete "
+                                    "limit ({:.2f} lp/mm).",
+                                    name, name, s->lp_per_mm));
+  }
+  if (!(c.nyquist_h_lp_per_mm > 0) || !(c.nyquist_v_lp_per_mm > 0))
+    c.notes.push_back("The reference gives no sampling (Nyquist) limit.");
+}
+
 }  // namespace
 
 std::optional<double> OrientationSummary::value_lp_per_mm() const {
   if (interp_lp_per_mm) return interp_lp_per_mm;
   if (resolved_any) return lp_per_mm;
   return std::nullopt;
+}
+
+const char* to_string(LimitedBy l) {
+  switch (l) {
+    case LimitedBy::unknown: return "";
+    case LimitedBy::optics: return "optics";
+    case LimitedBy::light_noise: return "light/noise";
+    case LimitedBy::mixed: return "mixed";
+  }
+  return "";
+}
+
+LightNeededWords light_needed_words(std::optional<double> factor) {
+  if (!factor || !(*factor > 0) || !std::isfinite(*factor)) return {"n/a", ""};
+  // Two significant digits: the factor comes from a CNR of a few percent
+  // uncertainty, and a bright design's spare light spans decades.
+  if (*factor >= 1) return {fmt::format("×{:.{}f}", *factor, *factor < 10 ? 1 : 0), "more light"};
+  if (*factor < 0.01) return {"<0.01×", "light to spare"};
+  return {fmt::format("{:.2g}×", *factor), "light to spare"};
+}
+
+std::string light_needed_text(std::optional<double> factor) {
+  const LightNeededWords w = light_needed_words(factor);
+  if (w.meaning.empty()) return w.factor;
+  return w.factor + (*factor >= 1 ? " " : ": ") + w.meaning;
 }
 
 const char* to_string(RowStatus s) {
@@ -196,6 +313,7 @@ Comparison compare_designs(std::vector<MeasurementRecord> measurements, Measurem
   Comparison c;
   c.threshold = reference.threshold;
   c.significance_z = reference.significance_z;
+  c.detectability_k = common_detectability_k(all);
   c.layout = reference.layout;
   c.nyquist_h_lp_per_mm = reference.nyquist_h_lp_per_mm;
   c.nyquist_v_lp_per_mm = reference.nyquist_v_lp_per_mm;
@@ -204,30 +322,8 @@ Comparison compare_designs(std::vector<MeasurementRecord> measurements, Measurem
   DesignRow& ref = c.reference_row;
   ref.design = reference.design;
   ref.status = RowStatus::reference;
-  ref.n = 1;
-  ref.horizontal = summarise({&reference.horizontal});
-  ref.vertical = summarise({&reference.vertical});
-  const std::optional<double> ref_h = ref.horizontal.value_lp_per_mm(), ref_v = ref.vertical.value_lp_per_mm();
-  ref.horizontal.pct_of_reference = percent(ref_h, ref_h);
-  ref.vertical.pct_of_reference = percent(ref_v, ref_v);
-  ref.mean_hv_lp_per_mm = mean_hv(ref);
-  ref.mean_pct_of_reference = percent(ref.mean_hv_lp_per_mm, ref.mean_hv_lp_per_mm);
-  for (const auto& [name, s] : {std::pair{"horizontal", &ref.horizontal}, std::pair{"vertical", &ref.vertical}}) {
-    if (!s->resolved_any)
-      c.notes.push_back(fmt::format("The reference resolved no {}-bar element: {} percentages are not available.",
-                                    name, name));
-    else if (s->beyond_finest)
-      c.notes.push_back(fmt::format(
-          "The reference resolved every {}-bar element: its {} limit ({:.2f} lp/mm) is a lower bound, so the "
-          "{} percentages are upper bounds.",
-          name, name, s->lp_per_mm, name));
-    else if (!s->interp_lp_per_mm)
-      c.notes.push_back(fmt::format("The reference has no interpolated {} limit: {} percentages use its discrete "
-                                    "limit ({:.2f} lp/mm).",
-                                    name, name, s->lp_per_mm));
-  }
-  if (!(c.nyquist_h_lp_per_mm > 0) || !(c.nyquist_v_lp_per_mm > 0))
-    c.notes.push_back("The reference gives no sampling (Nyquist) limit.");
+  aggregate_row(ref, {&reference}, ref);
+  add_reference_notes(c);
 
   // Group by design label, in order of first appearance.
   std::map<std::string, size_t> row_of;
@@ -241,32 +337,23 @@ Comparison compare_designs(std::vector<MeasurementRecord> measurements, Measurem
     c.designs[it->second].presses.push_back(i);
   }
   for (DesignRow& row : c.designs) {
-    std::vector<const LimitRecord*> h, v;
+    std::vector<const MeasurementRecord*> usable;
     for (size_t i : row.presses) {
       const MeasurementRecord& m = measurements[i];
-      if (m.usable) {
-        h.push_back(&m.horizontal);
-        v.push_back(&m.vertical);
-      } else {
-        row.problems.push_back(m.path.filename().string() + ": " + m.problem);
-      }
+      if (m.usable) usable.push_back(&m);
+      else row.problems.push_back(m.path.filename().string() + ": " + m.problem);
     }
-    row.n = int(h.size());
-    row.n_failed = int(row.presses.size()) - row.n;
-    row.status = row.n == 0 ? RowStatus::failed : row.n_failed > 0 ? RowStatus::partly_failed : RowStatus::ok;
-    if (row.n == 0) continue;
-    row.horizontal = summarise(h);
-    row.vertical = summarise(v);
-    row.horizontal.pct_of_reference = percent(row.horizontal.value_lp_per_mm(), ref_h);
-    row.vertical.pct_of_reference = percent(row.vertical.value_lp_per_mm(), ref_v);
-    row.mean_hv_lp_per_mm = mean_hv(row);
-    row.mean_pct_of_reference = percent(row.mean_hv_lp_per_mm, ref.mean_hv_lp_per_mm);
+    row.n_failed = int(row.presses.size() - usable.size());
+    row.status = usable.empty() ? RowStatus::failed : row.n_failed > 0 ? RowStatus::partly_failed : RowStatus::ok;
+    if (!usable.empty()) aggregate_row(row, usable, ref);
   }
 
-  // Competition ranking by the mean of H and V, best first. A design is
-  // only counted better when it is better beyond 2 combined sigma: two
-  // designs that the measurements cannot tell apart share a rank, so a
-  // rank never claims more than the error bars do.
+  // Competition ranking by the mean of H and V of the REPORTED limits (the
+  // coarser of optics and detectability), best first: a design that light
+  // holds back ranks by what it resolves, not by what its optics could. A
+  // design is only counted better when it is better beyond 2 combined
+  // sigma: two designs that the measurements cannot tell apart share a
+  // rank, so a rank never claims more than the error bars do.
   for (DesignRow& row : c.designs) {
     if (!row.mean_hv_lp_per_mm) continue;
     int better = 0;

@@ -289,5 +289,126 @@ TEST_CASE("one layout spelt two ways is one layout when the files are identical"
             .find("the reference cmos.json was measured on layout") != std::string::npos);
 }
 
+// /2 measurements: reference H 8, V 10 (optics-limited); "A" 6 and 6, limited
+// by its optics with light to spare; "L" whose optics would reach 7 and 9
+// but whose bars sink into the noise at 4 and 5.
+HandMeasurement v2(HandMeasurement m) {
+  m.schema = 2;
+  return m;
+}
+HandMeasurement light_limited(const std::string& design) {
+  HandMeasurement m = v2(make(design, 4.0, 5.0));
+  testing::limit_by_light(m.h, 7.0, 1.8, m.h_parts);
+  testing::limit_by_light(m.v, 9.0, 1.2, m.v_parts);
+  return m;
+}
+MeasurementRecord reference_v2() {
+  HandMeasurement m = v2(make("cmos", 8.0, 10.0, 0.2));
+  m.h.group = m.v.group = 3;
+  m.h.lp_per_mm = m.v.lp_per_mm = 8.0;
+  return record(m, "cmos.json");
+}
+
+TEST_CASE("two limits: optical, detectability and reported as % of raw CMOS, the limiting factor, light needed") {
+  const Comparison c =
+      compare_designs({record(v2(make("A", 6.0, 6.0)), "a.json"), record(light_limited("L"), "l.json")}, reference_v2());
+  CHECK(c.detectability_k == doctest::Approx(5.0));
+  const DesignRow& l = row(c, "L");
+  CHECK(l.horizontal_parts.limited_by == LimitedBy::light_noise);
+  CHECK(l.vertical_parts.limited_by == LimitedBy::light_noise);
+  CHECK(l.horizontal_parts.light_limited_presses == 1);
+  // All three on the reference's REPORTED limit: 7 / 8, 4 / 8, 4 / 8.
+  CHECK(*l.horizontal_parts.optical.pct_of_reference == doctest::Approx(87.5));
+  REQUIRE(l.horizontal_parts.detectability);
+  CHECK(*l.horizontal_parts.detectability->pct_of_reference == doctest::Approx(50.0));
+  CHECK(*l.horizontal.pct_of_reference == doctest::Approx(50.0));
+  CHECK(*l.vertical_parts.optical.pct_of_reference == doctest::Approx(90.0));  // 9 / 10
+  // Light needed: per orientation as measured, the design's is the larger.
+  CHECK(*l.horizontal_parts.light_needed_factor == doctest::Approx(1.8));
+  CHECK(*l.vertical_parts.light_needed_factor == doctest::Approx(1.2));
+  CHECK(*l.light_needed_factor == doctest::Approx(1.8));
+
+  const DesignRow& a = row(c, "A");
+  CHECK(a.horizontal_parts.limited_by == LimitedBy::optics);
+  CHECK(*a.horizontal_parts.optical.pct_of_reference == doctest::Approx(75.0));
+  // Every element detectable: the finest (8 lp/mm), a lower bound.
+  REQUIRE(a.vertical_parts.detectability);
+  CHECK(a.vertical_parts.detectability->beyond_finest);
+  CHECK(*a.vertical_parts.detectability->pct_of_reference == doctest::Approx(80.0));  // 8 / 10
+  CHECK(*a.light_needed_factor == doctest::Approx(0.25));
+  CHECK(c.reference_row.horizontal_parts.limited_by == LimitedBy::optics);
+  CHECK(*c.reference_row.horizontal_parts.optical.pct_of_reference == doctest::Approx(100.0));
+}
+
+TEST_CASE("ranks use the reported limit: a light-limited design ranks by what it resolves, not its optics") {
+  // L's optics (mean 8) beat A's (6), but light holds L to a mean of 4.5.
+  const Comparison c =
+      compare_designs({record(light_limited("L"), "l.json"), record(v2(make("A", 6.0, 6.0)), "a.json")}, reference_v2());
+  CHECK(*row(c, "A").rank == 1);
+  CHECK(*row(c, "L").rank == 2);
+  CHECK(*row(c, "L").mean_hv_lp_per_mm == doctest::Approx(4.5));
+  // The 2-combined-sigma tie rule still applies to the reported limits.
+  const Comparison tie = compare_designs(
+      {record(light_limited("L"), "l.json"), record(v2(make("B", 4.5, 4.6)), "b.json")}, reference_v2());
+  CHECK(*row(tie, "L").rank == 1);
+  CHECK(*row(tie, "B").rank == 1);
+}
+
+TEST_CASE("repeated presses: limiting factors that disagree are mixed, the light needed is the largest") {
+  HandMeasurement optics = v2(make("T", 6.0, 6.0));
+  optics.h_parts.light_needed = optics.v_parts.light_needed = 0.5;
+  const Comparison c =
+      compare_designs({record(light_limited("T"), "t1.json"), record(optics, "t2.json")}, reference_v2());
+  const DesignRow& t = row(c, "T");
+  CHECK(t.horizontal_parts.limited_by == LimitedBy::mixed);
+  CHECK(t.horizontal_parts.light_limited_presses == 1);
+  CHECK(*t.horizontal_parts.light_needed_factor == doctest::Approx(1.8));
+  // A press without a factor leaves the design without one.
+  optics.h_parts.light_needed = std::nullopt;
+  const Comparison u =
+      compare_designs({record(light_limited("T"), "t1.json"), record(optics, "t2.json")}, reference_v2());
+  CHECK_FALSE(row(u, "T").horizontal_parts.light_needed_factor);
+  CHECK_FALSE(row(u, "T").light_needed_factor);
+  CHECK(*row(u, "T").vertical_parts.light_needed_factor == doctest::Approx(1.2));
+}
+
+TEST_CASE("measurement/1 files still compare: the reported limit is the optical one, detectability unknown") {
+  const Comparison c = compare_designs({record(make("A", 6.0, 5.0), "a.json")}, reference());
+  const DesignRow& a = row(c, "A");
+  CHECK(a.horizontal_parts.limited_by == LimitedBy::unknown);
+  CHECK_FALSE(a.horizontal_parts.detectability);
+  CHECK(*a.horizontal_parts.optical.pct_of_reference == doctest::Approx(75.0));
+  CHECK(*a.horizontal_parts.optical.interp_lp_per_mm == doctest::Approx(6.0));
+  CHECK_FALSE(a.light_needed_factor);
+  CHECK(*a.rank == 1);
+  CHECK(c.detectability_k == 0.0);
+  // /1 and /2 presses of one design: the detectability is not known for all.
+  const Comparison mixed = compare_designs(
+      {record(make("T", 6.0, 5.0), "t1.json"), record(light_limited("T"), "t2.json")}, reference());
+  CHECK(row(mixed, "T").horizontal_parts.limited_by == LimitedBy::unknown);
+  CHECK_FALSE(row(mixed, "T").horizontal_parts.detectability);
+  CHECK(mixed.detectability_k == doctest::Approx(5.0));  // from the /2 input
+}
+
+TEST_CASE("refusals: detectability limits from different Rose thresholds") {
+  HandMeasurement strict = v2(make("B", 6.0, 5.0));
+  strict.detectability_k = 40.0;
+  const std::string m =
+      refusal([&] { compare_designs({record(v2(make("A", 6.0, 5.0)), "a.json"), record(strict, "b.json")}, reference_v2()); });
+  CHECK(m.find("mixed criteria: cmos.json used detectability k 5 but b.json k 40") != std::string::npos);
+  // A /1 file has no k to disagree with.
+  CHECK_NOTHROW(compare_designs({record(strict, "b.json"), record(make("C", 6.0, 5.0), "c.json")}, reference()));
+}
+
+TEST_CASE("light needed as text") {
+  CHECK(light_needed_text(1.83) == "×1.8 more light");
+  CHECK(light_needed_text(12.4) == "×12 more light");
+  CHECK(light_needed_text(0.4) == "0.4×: light to spare");
+  CHECK(light_needed_text(0.043) == "0.043×: light to spare");
+  CHECK(light_needed_text(0.0004) == "<0.01×: light to spare");
+  CHECK(light_needed_text(std::nullopt) == "n/a");
+  CHECK(light_needed_text(0.0) == "n/a");
+}
+
 }  // namespace
 }  // namespace tactres

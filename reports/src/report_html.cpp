@@ -16,10 +16,16 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "report_html_internal.h"
 #include "tactres/util/atomic_file.h"
 
 namespace tactres {
 namespace {
+
+using report_html::esc;
+using report_html::join;
+using report_html::limits_table;
+using report_html::num;
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -41,26 +47,16 @@ constexpr const char* kReportAfterScript = kAsset_report_after_js;  // reports/a
 
 // ---------------------------------------------------------------------------
 
-std::string esc(std::string_view s) { return html_escape(s); }
-
-std::string join(const std::vector<std::string>& parts, std::string_view sep) {
-  std::string out;
-  for (const std::string& p : parts) {
-    if (!out.empty()) out += sep;
-    out += p;
-  }
-  return out;
-}
-
-std::string num(double v, int digits) { return fmt::format("{:.{}f}", v, digits); }
-
 json opt_json(std::optional<double> v) { return v ? json(*v) : json(); }
 
-json orientation_json(const OrientationSummary& o) {
+json orientation_json(const OrientationSummary& o, const OrientationParts& parts) {
   return {{"value", opt_json(o.value_lp_per_mm())},
           {"interpolated", o.interp_lp_per_mm.has_value()},
           {"sigma", opt_json(o.interp_sigma_lp_per_mm)},
-          {"pct", opt_json(o.pct_of_reference)}};
+          {"pct", opt_json(o.pct_of_reference)},
+          {"limited_by", to_string(parts.limited_by)},
+          {"optical_pct", opt_json(parts.optical.pct_of_reference)},
+          {"detectability_pct", parts.detectability ? opt_json(parts.detectability->pct_of_reference) : json()}};
 }
 
 json curve_points(const MeasurementRecord& m, BarOrientation o) {
@@ -70,23 +66,29 @@ json curve_points(const MeasurementRecord& m, BarOrientation o) {
   std::sort(ok.begin(), ok.end(), [](const ElementRecord* a, const ElementRecord* b) { return a->lp_per_mm < b->lp_per_mm; });
   json pts = json::array();
   for (const ElementRecord* e : ok)
-    pts.push_back({{"f", e->lp_per_mm}, {"m", *e->m}, {"s", *e->m_sigma}, {"g", e->group}, {"e", e->element}});
+    pts.push_back({{"f", e->lp_per_mm}, {"m", *e->m}, {"s", *e->m_sigma}, {"g", e->group}, {"e", e->element},
+                   {"c", opt_json(e->cnr)}, {"cs", opt_json(e->cnr_sigma)}});
   return pts;
 }
 
 json page_data(const Comparison& c) {
   json d;
   d["threshold"] = c.threshold;
+  d["detectability_k"] = c.detectability_k > 0 ? json(c.detectability_k) : json();
   d["nyquist"] = {{"h", c.nyquist_h_lp_per_mm}, {"v", c.nyquist_v_lp_per_mm}};
-  d["reference"] = {{"design", c.reference_row.design},
-                    {"h", orientation_json(c.reference_row.horizontal)},
-                    {"v", orientation_json(c.reference_row.vertical)}};
+  const DesignRow& ref = c.reference_row;
+  d["reference"] = {{"design", ref.design},
+                    {"h", orientation_json(ref.horizontal, ref.horizontal_parts)},
+                    {"v", orientation_json(ref.vertical, ref.vertical_parts)}};
   d["designs"] = json::array();
   for (const DesignRow& r : c.designs) {
-    json row = {{"design", r.design}, {"status", to_string(r.status)}, {"rank", r.rank ? json(*r.rank) : json()}};
+    json row = {{"design", r.design},
+                {"status", to_string(r.status)},
+                {"rank", r.rank ? json(*r.rank) : json()},
+                {"light_needed_factor", opt_json(r.light_needed_factor)}};
     if (r.n > 0) {
-      row["h"] = orientation_json(r.horizontal);
-      row["v"] = orientation_json(r.vertical);
+      row["h"] = orientation_json(r.horizontal, r.horizontal_parts);
+      row["v"] = orientation_json(r.vertical, r.vertical_parts);
     } else {
       row["h"] = row["v"] = nullptr;
     }
@@ -112,87 +114,6 @@ json page_data(const Comparison& c) {
     }
   }
   return d;
-}
-
-// ---------------------------------------------------------------------------
-// The table.
-
-std::string pct_cell(std::optional<double> pct, const char* extra_class = "") {
-  if (!pct) return fmt::format("<td class=\"{}\">–</td>", extra_class);
-  const double w = std::clamp(*pct, 0.0, 100.0);
-  return fmt::format("<td class=\"pct {}\" style=\"--w:{:.1f}%\">{:.1f}&thinsp;%</td>", extra_class, w, *pct);
-}
-
-std::string orientation_cells(const OrientationSummary& o, int n) {
-  std::string s;
-  if (o.resolved_any) {
-    s += fmt::format("<td class=\"sep\">G{}&thinsp;E{}</td>", o.group, o.element);
-    s += fmt::format("<td>{}{}</td>", o.beyond_finest ? "&ge;&thinsp;" : "", num(o.lp_per_mm, 2));
-  } else {
-    s += "<td class=\"sep\" colspan=\"2\" title=\"no element resolved: the limit is below the coarsest element\">none "
-         "resolved</td>";
-  }
-  if (o.interp_lp_per_mm) {
-    std::string title;
-    if (n >= 2)
-      title = fmt::format("mean of {} presses; sample SD {}; ± combines the SD and the mean uncertainty", n,
-                          o.interp_sd_lp_per_mm ? num(*o.interp_sd_lp_per_mm, 3) : "–");
-    else
-      title = "the measurement's 1-sigma uncertainty";
-    s += fmt::format("<td title=\"{}\">{}{}</td>", esc(title), num(*o.interp_lp_per_mm, 2),
-                     o.interp_sigma_lp_per_mm
-                         ? fmt::format(" <span class=\"pm\">± {}</span>", num(*o.interp_sigma_lp_per_mm, 2))
-                         : std::string());
-  } else {
-    s += "<td title=\"no crossing could be interpolated: the comparison uses the discrete limit\">–</td>";
-  }
-  s += pct_cell(o.pct_of_reference);
-  return s;
-}
-
-std::string table_row(const DesignRow& r) {
-  const bool ref = r.status == RowStatus::reference;
-  const char* role = ref ? "reference" : "design";
-  std::string cls = ref ? "reference" : r.status == RowStatus::failed ? "design failed" : "design";
-  std::string s = fmt::format("<tr class=\"{}\" data-row=\"{}\" data-design=\"{}\" data-status=\"{}\">", cls, role,
-                              esc(r.design), to_string(r.status));
-  s += fmt::format("<td class=\"rank\">{}</td>", r.rank ? std::to_string(*r.rank) : "–");
-  s += fmt::format("<td class=\"name\">{}</td>", esc(r.design));
-  s += fmt::format("<td>{}</td>", r.n_failed ? fmt::format("{}/{}", r.n, r.n + r.n_failed) : std::to_string(r.n));
-  if (r.n == 0) {
-    std::vector<std::string> problems;
-    for (const std::string& p : r.problems) problems.push_back(esc(p));
-    s += fmt::format("<td class=\"sep problem\" colspan=\"10\">failed: {}</td>", join(problems, "<br>"));
-  } else {
-    s += orientation_cells(r.horizontal, r.n);
-    s += orientation_cells(r.vertical, r.n);
-    s += fmt::format("<td class=\"sep\">{}</td>", r.mean_hv_lp_per_mm ? num(*r.mean_hv_lp_per_mm, 2) : "–");
-    s += pct_cell(r.mean_pct_of_reference);
-  }
-  std::string status = to_string(r.status);
-  if (r.status == RowStatus::partly_failed) status = fmt::format("{} of {} failed", r.n_failed, r.n + r.n_failed);
-  if (r.status == RowStatus::reference) status = "raw CMOS";
-  const std::string title = join(r.problems, "\n");
-  s += fmt::format("<td class=\"sep status-{}\"{}>{}</td></tr>\n", to_string(r.status),
-                   title.empty() ? "" : fmt::format(" title=\"{}\"", esc(title)), esc(status));
-  return s;
-}
-
-std::string limits_table(const Comparison& c) {
-  std::string s =
-      "<table class=\"limits\" id=\"limits\">\n<thead>\n"
-      "<tr><th rowspan=\"2\">Rank</th><th rowspan=\"2\" class=\"name\">Design</th><th rowspan=\"2\" "
-      "title=\"usable presses aggregated (of all given)\">n</th>"
-      "<th colspan=\"4\" class=\"grp h sep\">Horizontal bars</th><th colspan=\"4\" class=\"grp v sep\">Vertical "
-      "bars</th><th colspan=\"2\" class=\"grp sep\">Mean of H and V</th><th rowspan=\"2\" class=\"sep\">Status</th></tr>\n"
-      "<tr>";
-  for (int k = 0; k < 2; ++k)
-    s += "<th class=\"sep\">element</th><th>discrete<br>lp/mm</th><th>interpolated<br>lp/mm ± 1σ</th><th>% of raw<br>CMOS</th>";
-  s += "<th class=\"sep\">lp/mm</th><th>% of raw<br>CMOS</th></tr>\n</thead>\n<tbody>\n";
-  s += table_row(c.reference_row);
-  for (const DesignRow& r : c.designs) s += table_row(r);
-  s += "</tbody>\n</table>\n";
-  return s;
 }
 
 // ---------------------------------------------------------------------------
@@ -250,6 +171,31 @@ std::string lp(std::optional<double> v, std::optional<double> sigma = std::nullo
   return s;
 }
 
+// Which designs light and noise hold back, at a glance.
+std::string light_card(const Comparison& c) {
+  std::vector<std::string> light;
+  bool known = std::any_of(c.designs.begin(), c.designs.end(), [](const DesignRow& r) { return r.n > 0; });
+  for (const DesignRow& r : c.designs) {
+    if (r.n == 0) continue;
+    const OrientationParts* parts[2] = {&r.horizontal_parts, &r.vertical_parts};
+    std::vector<std::string> where;
+    for (int k = 0; k < 2; ++k) {
+      if (parts[k]->limited_by == LimitedBy::unknown) known = false;
+      if (parts[k]->limited_by == LimitedBy::light_noise || parts[k]->limited_by == LimitedBy::mixed)
+        where.push_back(k == 0 ? "H" : "V");
+    }
+    if (!where.empty()) light.push_back(fmt::format("{} <small>({})</small>", esc(r.design), join(where, ", ")));
+  }
+  std::string val = !light.empty() ? join(light, ", ") : known ? "none" : "n/a";
+  std::string detail = !light.empty() ? "the detectability limit is the coarser: more light would help"
+                       : known        ? "every design is limited by its optics"
+                                      : "no usable design, or measurements from before the detectability limit";
+  return fmt::format(
+      "<div class=\"card light-card\"><div class=\"k\">Limited by light/noise</div><div class=\"val\">{}</div>"
+      "<div class=\"detail\">{}{}</div></div>\n",
+      val, detail, c.detectability_k > 0 ? fmt::format("; Rose k = {}", c.detectability_k) : "");
+}
+
 std::string cards(const Comparison& c) {
   const DesignRow& ref = c.reference_row;
   std::string s = "<section class=\"cards\">\n";
@@ -282,11 +228,59 @@ std::string cards(const Comparison& c) {
         best->mean_pct_of_reference ? fmt::format(", {:.1f} % of raw CMOS", *best->mean_pct_of_reference) : "");
   else
     s += "<div class=\"card\"><div class=\"k\">Best design</div><div class=\"val\">none ranked</div></div>\n";
+  s += light_card(c);
   s += fmt::format(
       "<div class=\"card\"><div class=\"k\">Designs</div><div class=\"val\">{} <small>compared</small></div>"
       "<div class=\"detail\">{} measurements{}</div></div>\n",
       c.designs.size(), c.measurements.size() + 1, failed ? fmt::format("; {} design(s) failed", failed) : "");
   return s + "</section>\n";
+}
+
+bool has_cnr(const Comparison& c) {
+  auto any = [](const MeasurementRecord& m) {
+    return m.usable && std::any_of(m.elements.begin(), m.elements.end(), [](const ElementRecord& e) { return e.cnr.has_value(); });
+  };
+  return any(c.reference) || std::any_of(c.measurements.begin(), c.measurements.end(), any);
+}
+
+// m(f) and, when the measurements have it (/2), CNR(f) beside it: one row
+// per orientation, so that what the optics transfer and what stands out of
+// the noise read side by side. /1 measurements get no empty CNR charts.
+std::string curves_section(const Comparison& c) {
+  const bool cnr = has_cnr(c);
+  auto chart = [](const char* id, const std::string& heading, const std::string& label) {
+    return fmt::format(
+        "<div><h3>{}</h3><div class=\"chart-box\"><canvas id=\"{}\" role=\"img\" aria-label=\"{}\"></canvas>"
+        "</div></div>\n",
+        heading, id, label);
+  };
+  std::string s = fmt::format("<section id=\"curves\">\n<h2>{}</h2>\n<div class=\"curves{}\">\n",
+                              cnr ? "Modulation m(f) and contrast-to-noise CNR(f) versus spatial frequency"
+                                  : "Modulation m(f) versus spatial frequency",
+                              cnr ? " with-cnr" : "");
+  for (const auto& [key, name] : {std::pair{"h", "Horizontal bars"}, std::pair{"v", "Vertical bars"}}) {
+    const std::string lower = key == std::string("h") ? "horizontal bars" : "vertical bars";
+    s += chart(key == std::string("h") ? "chart-mtf-h" : "chart-mtf-v", cnr ? std::string(name) + ": m(f)" : name,
+               "m(f) of " + lower);
+    if (cnr)
+      s += chart(key == std::string("h") ? "chart-cnr-h" : "chart-cnr-v", std::string(name) + ": CNR(f)",
+                 "CNR(f) of " + lower);
+  }
+  s += "</div>\n";
+  s += fmt::format(
+      "<p class=\"note\">Each press's elements with status ok: m ± 1σ as measured. An element is resolved when m "
+      "&ge; {} (red line) and m &minus; {}σ &gt; 0. Repeated presses of a design share its colour; the raw CMOS "
+      "curve is black and dashed.",
+      c.threshold, c.significance_z);
+  if (cnr)
+    s += fmt::format(
+        " CNR(f): each bar's contrast-to-noise ratio in one frame (Rose), ± 1σ, on a log scale; an element is "
+        "detectable when CNR &ge; {} (red line) and significantly above 0. More light moves these curves up, "
+        "never the m(f) ones.",
+        c.detectability_k > 0 ? fmt::format("k = {}", c.detectability_k) : std::string("k"));
+  else
+    s += " No CNR(f): these measurements predate the detectability limit (tactres.measurement/1).";
+  return s + "</p>\n</section>\n";
 }
 
 }  // namespace
@@ -391,7 +385,7 @@ std::string render_html_report(const Comparison& c, const HtmlReportOptions& opt
 
   s += "<section id=\"table\">\n<h2>Limits per design</h2>\n" + limits_table(c);
   s += "<ul class=\"note\">\n"
-       "<li><b>element</b> and <b>discrete</b>: the finest element resolved together with every coarser one (for "
+       "<li><b>discrete</b> (element): the finest element resolved together with every coarser one (for "
        "repeated presses, the coarsest over the presses); &ge; means every element was resolved, a lower "
        "bound.</li>\n"
        "<li><b>interpolated</b>: where m(f) crosses the criterion between elements. One press: its value ± its "
@@ -399,7 +393,17 @@ std::string render_html_report(const Comparison& c, const HtmlReportOptions& opt
        "uncertainty in quadrature (hover for the SD).</li>\n"
        "<li><b>% of raw CMOS</b>: the interpolated limit (the discrete one where there is none) as a percentage "
        "of the reference's. <b>Mean of H and V</b> ranks the designs; failed designs are shown, never "
-       "ranked.</li>\n";
+       "ranked.</li>\n"
+       "<li>The limits above are the <b>reported</b> ones: the coarser of the <b>optical</b> limit (where m(f) "
+       "falls below the criterion; light cannot move it) and the <b>detectability</b> limit (where the bars sink "
+       "into one frame's pixel noise, CNR below the Rose threshold k; light moves it). The tag before the "
+       "percentage names the coarser (<i>optics</i> or <i>light/noise</i>; <i>mixed</i> when repeated presses "
+       "disagree), and both limits follow under it as % of the raw CMOS limit (&ge;: every element passed, a lower "
+       "bound; hover for lp/mm). <i>detect. n/a</i>, no tag: a measurement from before the detectability limit "
+       "(tactres.measurement/1), whose reported limit is its optical one.</li>\n"
+       "<li><b>Light needed</b>: the exposure factor at which the detectability limit would reach the optical one "
+       "(the larger of H and V; over repeated presses the largest). ×1.8 more light: light and noise hold the "
+       "design back; 0.4×: the design would still reach its optical limit with 40 % of its light.</li>\n";
   for (const std::string& n : c.notes) s += "<li>" + esc(n) + "</li>\n";
   for (const DesignRow& r : c.designs)
     for (const std::string& p : r.problems)
@@ -413,16 +417,7 @@ std::string render_html_report(const Comparison& c, const HtmlReportOptions& opt
        "the raw CMOS limit above each bar. Dashed lines: the bare camera's limits; dotted: the camera's sampling "
        "(Nyquist) limit at the target plane.</p>\n</section>\n";
 
-  s += "<section id=\"curves\">\n<h2>Modulation m(f) versus spatial frequency</h2>\n<div class=\"curves\">\n"
-       "<div><h3>Horizontal bars</h3><div class=\"chart-box\"><canvas id=\"chart-mtf-h\" role=\"img\" "
-       "aria-label=\"m(f) of horizontal bars\"></canvas></div></div>\n"
-       "<div><h3>Vertical bars</h3><div class=\"chart-box\"><canvas id=\"chart-mtf-v\" role=\"img\" "
-       "aria-label=\"m(f) of vertical bars\"></canvas></div></div>\n</div>\n";
-  s += fmt::format(
-      "<p class=\"note\">Each press's elements with status ok: m ± 1σ as measured. An element is resolved when m "
-      "&ge; {} (red line) and m &minus; {}σ &gt; 0. Repeated presses of a design share its colour; the raw CMOS "
-      "curve is black and dashed.</p>\n</section>\n",
-      c.threshold, c.significance_z);
+  s += curves_section(c);
 
   s += "<section id=\"overlays\">\n<h2>Overlays</h2>\n<p class=\"note\" style=\"margin-top:0\">Each capture with "
        "the sampled strips coloured by status (green resolved, orange not resolved, red/grey not measurable). "

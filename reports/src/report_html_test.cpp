@@ -128,7 +128,7 @@ TEST_CASE("the HTML page: one row per design plus the reference, inline data, no
   CHECK(count(html, "<canvas") == 3);
   CHECK(html.find("data-charts-expected=\"3\"") != std::string::npos);
   // 75 % of the reference (6 / 8), in the table.
-  CHECK(html.find(">75.0&thinsp;%</td>") != std::string::npos);
+  CHECK(html.find(">75.0&thinsp;%<small>optical 75.0&thinsp;%") != std::string::npos);
   // The Nyquist limit, criterion and versions are on the page.
   CHECK(html.find("Camera sampling (Nyquist) limit") != std::string::npos);
   CHECK(html.find("criterion m(f) &ge; 0.1") != std::string::npos);
@@ -168,6 +168,87 @@ TEST_CASE("inlined JavaScript cannot end the script element") {
   const std::string html = render_html_report(p.comparison, p.options);
   CHECK(html.find("</SCRIPT>") == std::string::npos);
   CHECK(html.find("var s = '<\\/SCRIPT><b>'") != std::string::npos);
+}
+
+// /2 inputs: "A" limited by its optics, "L" by light and noise.
+struct PageV2 {
+  ReportTempDir dir{"reports-html2"};
+  Comparison comparison;
+  HtmlReportOptions options;
+  PageV2() {
+    HandMeasurement ref, a, l;
+    ref.design = "cmos";
+    ref.h.interp = 8.0;
+    ref.v.interp = 10.0;
+    a.design = "A";
+    a.h.interp = a.v.interp = 6.0;
+    l.design = "L";
+    l.h.interp = 4.0;
+    l.v.interp = 5.0;
+    testing::limit_by_light(l.h, 7.0, 1.8, l.h_parts);
+    testing::limit_by_light(l.v, 9.0, 1.2, l.v_parts);
+    for (HandMeasurement* m : {&ref, &a, &l}) m->schema = 2;
+    l.cnr[2] = 3.0;  // 4 lp/mm: below k = 5
+    auto load = [&](const HandMeasurement& m, const std::string& name) {
+      return measurement_from_json(hand_measurement(m), (dir.path / name).string());
+    };
+    comparison = compare_designs({load(a, "a.json"), load(l, "l.json")}, load(ref, "cmos.json"));
+    options.chart_js = dir.write("chart.min.js", "/* stand-in */ window.Chart = function () {};");
+  }
+};
+
+// The table row of `design` (up to its </tr>).
+std::string table_row_of(const std::string& html, const std::string& design) {
+  const size_t at = html.find("data-design=\"" + design + "\"");
+  REQUIRE(at != std::string::npos);
+  return html.substr(at, html.find("</tr>", at) - at);
+}
+
+TEST_CASE("the HTML page with measurement/2: limiting factor, the two limits, light needed, CNR(f) charts") {
+  PageV2 p;
+  const std::string html = render_html_report(p.comparison, p.options);
+  // m(f) and CNR(f) per orientation, and the bar chart: five charts.
+  CHECK(count(html, "<canvas") == 5);
+  CHECK(html.find("data-charts-expected=\"5\"") != std::string::npos);
+  CHECK(html.find("id=\"chart-cnr-h\"") != std::string::npos);
+  CHECK(html.find("id=\"chart-cnr-v\"") != std::string::npos);
+  CHECK(html.find("CNR &ge; k = 5 (red line)") != std::string::npos);
+  // The chart script draws the k line from the data, and the CNR values are there.
+  CHECK(html.find("Rose threshold k = ") != std::string::npos);
+  CHECK(html.find("\"detectability_k\":5.0") != std::string::npos);
+  CHECK(html.find("\"c\":3.0,") != std::string::npos);
+
+  const std::string l = table_row_of(html, "L");
+  CHECK(count(l, "data-limited-by=\"light/noise\"") == 2);
+  // The reported 50 % (4 / 8) tagged with its factor; optics alone would reach 87.5 % (7 / 8).
+  CHECK(l.find("<span class=\"tag tag-light\">light/noise</span> 50.0&thinsp;%<small>optical 87.5&thinsp;%<br>"
+               "detect. 50.0&thinsp;%</small>") != std::string::npos);
+  CHECK(l.find(">×1.8<small>more light</small></td>") != std::string::npos);
+  CHECK(l.find("class=\"rank\">2<") != std::string::npos);  // ranked by what it resolves
+  const std::string a = table_row_of(html, "A");
+  CHECK(count(a, "data-limited-by=\"optics\"") == 2);
+  CHECK(a.find("detect. &ge;&thinsp;100.0&thinsp;%") != std::string::npos);  // every element detectable
+  CHECK(a.find(">0.25×<small>light to spare</small></td>") != std::string::npos);
+  CHECK(a.find("<span class=\"tag tag-optics\">optics</span> 75.0&thinsp;%") != std::string::npos);
+  CHECK(a.find("class=\"rank\">1<") != std::string::npos);
+  // The card names the light-limited design.
+  CHECK(html.find("Limited by light/noise</div><div class=\"val\">L <small>(H, V)</small>") != std::string::npos);
+}
+
+TEST_CASE("the HTML page with measurement/1: n/a for detectability, no empty CNR charts") {
+  Page p;  // /1 files
+  const std::string html = render_html_report(p.comparison, p.options);
+  CHECK(count(html, "<canvas") == 3);
+  CHECK(html.find("id=\"chart-cnr-") == std::string::npos);
+  CHECK(html.find("No CNR(f): these measurements predate the detectability limit") != std::string::npos);
+  const std::string b = table_row_of(html, "T2");
+  CHECK(count(b, "data-limited-by=\"\"") == 2);
+  // No tag, the reported limit as the optical one (4 / 8), and n/a for detectability.
+  CHECK(b.find("title=\"reported (the coarser): optical 4.00 lp/mm; detectability not measured (tactres.measurement/1)\">"
+               "50.0&thinsp;%<small>optical 50.0&thinsp;%<br>detect. n/a</small>") != std::string::npos);
+  CHECK(b.find("class=\"tag") == std::string::npos);
+  CHECK(b.find(">n/a</td>") != std::string::npos);  // light needed
+  CHECK(html.find("\"detectability_k\":null") != std::string::npos);
 }
 
 }  // namespace

@@ -46,6 +46,31 @@ struct OrientationSummary {
   std::optional<double> pct_of_reference;
 };
 
+// Which of the two limits (profiles/detectability.h) is the reported one,
+// over a row's usable presses.
+enum class LimitedBy {
+  unknown,      // some press predates the detectability limit (/1): the reported limit is its optical one
+  optics,       // every press: the optical limit
+  light_noise,  // every press: the detectability limit
+  mixed,        // the presses disagree
+};
+const char* to_string(LimitedBy l);  // "", "optics", "light/noise", "mixed"
+
+// One orientation's two limits, each aggregated over the presses like the
+// reported one (OrientationSummary), with percentages of the reference's
+// REPORTED limit, so that the three percentages of a row share one scale.
+struct OrientationParts {
+  OrientationSummary optical;
+  // Absent unless every usable press has a detectability limit (/2 files).
+  std::optional<OrientationSummary> detectability;
+  LimitedBy limited_by = LimitedBy::unknown;
+  int light_limited_presses = 0;
+  // Exposure factor at which the detectability limit would reach the
+  // optical one: the largest over the presses (the light that every press
+  // needs), absent unless every usable press gives one.
+  std::optional<double> light_needed_factor;
+};
+
 enum class RowStatus {
   reference,      // the reference row
   ok,             // every press usable
@@ -61,13 +86,18 @@ struct DesignRow {
   int n = 0;                    // usable presses aggregated
   int n_failed = 0;             // unusable presses (shown, never dropped)
   std::vector<std::string> problems;  // the unusable presses' problems, "file: problem"
-  OrientationSummary horizontal, vertical;
+  OrientationSummary horizontal, vertical;  // the reported limits: what is compared and ranked
+  OrientationParts horizontal_parts, vertical_parts;
+  // The design's "light needed": the larger of the H and V factors, so that
+  // both orientations reach their optical limits; absent unless both exist.
+  std::optional<double> light_needed_factor;
   // (H value + V value) / 2, when both exist.
   std::optional<double> mean_hv_lp_per_mm;
   // 100 * mean_hv / the reference's mean_hv.
   std::optional<double> mean_pct_of_reference;
-  // 1 = best, by mean_hv descending; designs whose means differ by no more
-  // than 2 combined sigma share a rank (1, 2, 2, 4).
+  // 1 = best, by mean_hv (of the reported limits) descending; designs
+  // whose means differ by no more than 2 combined sigma share a rank
+  // (1, 2, 2, 4).
   // Absent for the reference, failed designs, and designs without a mean.
   std::optional<int> rank;
 };
@@ -80,6 +110,9 @@ struct Comparison {
   std::vector<DesignRow> designs;  // in order of first appearance
   // Shared by every input (checked).
   double threshold = 0.0, significance_z = 0.0;
+  // The Rose threshold of the detectability limit, shared by every input
+  // that has one (checked); 0 when none has (all /1).
+  double detectability_k = 0.0;
   std::string layout;
   // The camera's sampling limit at the target plane, from the reference.
   double nyquist_h_lp_per_mm = 0.0, nyquist_v_lp_per_mm = 0.0;
@@ -87,9 +120,20 @@ struct Comparison {
   std::vector<std::string> notes;
 };
 
+// The light-needed factor in words, as the page and the command line say
+// it: {"×1.8", "more light"}, {"0.4×", "light to spare"}, or {"n/a", ""}
+// when it is absent or not positive.
+struct LightNeededWords {
+  std::string factor, meaning;
+};
+LightNeededWords light_needed_words(std::optional<double> factor);
+// The same in one line: "×1.8 more light", "0.4×: light to spare", "n/a".
+std::string light_needed_text(std::optional<double> factor);
+
 // Groups and aggregates. Throws std::invalid_argument, naming the files,
 // for: no design measurement; a failed reference; mixed layouts (the
-// "layout" strings, or the elements' frequencies); mixed criteria.
+// "layout" strings, or the elements' frequencies); mixed criteria (threshold
+// and z; and the detectability k among the inputs that have one).
 Comparison compare_designs(std::vector<MeasurementRecord> measurements, MeasurementRecord reference);
 
 // Reads the files and compares. Refuses (std::invalid_argument) an empty
