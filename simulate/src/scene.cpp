@@ -11,6 +11,7 @@ extern "C" {  // mrcal ships C headers without C++ guards
 }
 #include <nlohmann/json.hpp>
 
+#include "tactres/simulate/effects/light_path.h"
 #include "tactres/util/atomic_file.h"
 #include "tactres/util/json_fields.h"
 #include "tactres/targets/layout_json.h"
@@ -21,7 +22,8 @@ namespace {
 constexpr double kDeg = std::numbers::pi / 180.0;
 
 // Physical order of the pipeline: target plane, then optics, then sensor.
-const std::vector<std::string> kEffectOrder = {"contact", "shading", "illumination",
+// "light_path" stands for shading + illumination (it resolves into both).
+const std::vector<std::string> kEffectOrder = {"contact", "shading",    "illumination", "light_path",
                                                "blur",    "vignetting", "sensor"};
 
 ContactEffect parse_contact(JsonFields& f) {
@@ -88,6 +90,102 @@ IlluminationOptions parse_illumination(JsonFields& f) {
   return e;
 }
 
+// The light_path effect (effects/light_path.h, docs/LIGHT_PATH.md), resolved
+// here into the shading light and the illumination field the renderer and
+// the truth already know: nothing downstream sees the light path itself.
+struct ResolvedLightPath {
+  ShadingEffect shading;
+  IlluminationOptions illumination;
+  LightPathResult result;
+};
+
+LightPathOptions parse_light_path_options(JsonFields& f) {
+  LightPathOptions o;
+  o.type = f.text("type", std::nullopt, {"T1", "T2"}) == "T1" ? LightPathOptions::Type::T1
+                                                              : LightPathOptions::Type::T2;
+  const std::string shape = f.text("aperture", std::nullopt, {"circle", "square", "rectangle"});
+  o.aperture = shape == "circle"   ? LightPathOptions::Aperture::circle
+               : shape == "square" ? LightPathOptions::Aperture::square
+                                   : LightPathOptions::Aperture::rectangle;
+  const auto size = f.numbers("aperture_mm", 2, 0.01, 200, "mm");
+  if (o.aperture != LightPathOptions::Aperture::rectangle && size[0] != size[1])
+    throw std::invalid_argument(fmt::format(
+        "{}.aperture_mm: a {} aperture has equal sides ([{}, {}] given); use \"rectangle\" for [w, h]",
+        f.where(), shape, size[0], size[1]));
+  o.aperture_width_mm = size[0];
+  o.aperture_height_mm = size[1];
+  o.diffuser_height_mm = f.number("diffuser_height_mm", std::nullopt, 0.5, 500, "mm");
+  o.diffuser_transmittance = f.number("diffuser_transmittance", o.diffuser_transmittance, 1e-3, 1);
+  const nlohmann::json& leds = f.raw("leds");
+  if (!leds.is_array() || leds.empty() || leds.size() > 64)
+    throw std::invalid_argument(f.where() + ".leds must be an array of 1 to 64 LEDs");
+  for (size_t i = 0; i < leds.size(); ++i) {
+    JsonFields l(leds[i], fmt::format("{}.leds[{}]", f.where(), i));
+    LedSource led;
+    const auto pos = l.numbers("position_mm", 2, -500, 500, "mm");
+    led.position_mm = {pos[0], pos[1]};
+    led.flux_w = 1e-3 * l.number("flux_mw", std::nullopt, 1e-6, 1e4, "mW");
+    l.finish();
+    o.leds.push_back(led);
+  }
+  o.led_lambertian_order = f.number("led_lambertian_order", o.led_lambertian_order, 0.1, 100);
+  if (const nlohmann::json* e = f.raw_optional("elastomer")) {
+    JsonFields ef(*e, f.where() + ".elastomer");
+    o.elastomer_side_mm = ef.number("side_mm", o.elastomer_side_mm, 2, 500, "mm");
+    o.elastomer_thickness_mm = ef.number("thickness_mm", o.elastomer_thickness_mm, 0.1, 50, "mm");
+    o.refractive_index = ef.number("refractive_index", o.refractive_index, 1, 2.5);
+    o.attenuation_length_mm = ef.number("attenuation_length_mm", o.attenuation_length_mm, 1, 1e7, "mm");
+    ef.finish();
+  }
+  if (o.type == LightPathOptions::Type::T2)
+    o.edge_coupling = f.number("edge_coupling", o.edge_coupling, 1e-6, 1);
+  else if (f.has("edge_coupling"))
+    throw std::invalid_argument(f.where() +
+                                ".edge_coupling applies to T2 only (T1 has no light guided through the edge)");
+  return o;
+}
+
+ResolvedLightPath parse_light_path(JsonFields& f, const Scene& s) {
+  if (!s.view_pose)
+    throw std::invalid_argument(
+        f.where() +
+        ": light_path needs the pose in view form (view, distance_mm, roll_deg, offset_mm): distance_mm "
+        "places the membrane above the CMOS, rt_camera_from_target cannot say where the light is");
+  const ViewPose& v = *s.view_pose;
+  ResolvedLightPath r;
+  LightPathOptions o = parse_light_path_options(f);
+  o.membrane_height_mm = v.distance_mm;
+  // Linearised by default: the chain stays linear and the truth analytic.
+  r.shading.model = f.text("shading_model", "lambert_linearised", {"lambert_linearised", "lambert"}) == "lambert"
+                        ? ShadingEffect::Model::lambert
+                        : ShadingEffect::Model::lambert_linearised;
+  r.shading.albedo = f.number("albedo", 0.9, 1e-3, 1);
+  r.shading.ambient = f.number("ambient", 0.0, 0, 1);
+  const double unity_w_per_m2 = f.number("unity_irradiance_w_per_m2", std::nullopt, 1e-9, 1e9, "W/m^2");
+  MembraneMapping mapping;
+  mapping.target_center_sensor_mm = {v.offset_mm[0], v.offset_mm[1]};
+  mapping.roll_deg = v.roll_deg;
+  mapping.mirrored = v.view == "through_gel";
+  try {
+    r.result = resolve_light_path(o, mapping, 1e-6 * unity_w_per_m2);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(f.where() + ": " + e.what());
+  }
+  const LightPathResult& lp = r.result;
+  if (!(lp.illumination_gain >= 1e-3 && lp.illumination_gain <= 1e3))
+    throw std::invalid_argument(fmt::format(
+        "{}: the membrane irradiance at the target centre is {:.3g} W/m^2, {:.3g} times "
+        "unity_irradiance_w_per_m2 ({} W/m^2): set the exposure within a factor 1000 of the light",
+        f.where(), 1e6 * lp.at_target_center.normal_w_per_mm2, lp.illumination_gain, unity_w_per_m2));
+  r.shading.lights = {Light{lp.azimuth_deg, lp.elevation_deg, lp.weight}};
+  r.illumination.shape = IlluminationOptions::mapped;
+  r.illumination.map = lp.map;
+  r.illumination.distance_mm = std::max(0.5, lp.length_scale_mm);
+  r.illumination.aperture_center_mm = {std::nan(""), std::nan("")};  // resolved to the target centre
+  r.illumination.gain = lp.illumination_gain;
+  return r;
+}
+
 PsfOptions parse_blur(JsonFields& f) {
   PsfOptions e;
   const std::string kind = f.text("psf", std::nullopt, {"gaussian", "defocus_disc", "diffraction"});
@@ -124,9 +222,67 @@ SensorOptions parse_sensor(JsonFields& f) {
   return e;
 }
 
+// The effects list, in physical order; "light_path" resolves into shading
+// and illumination here (it needs the pose and the target kind, read before).
+void parse_effects(const nlohmann::json& effects, Scene& s) {
+  if (!effects.is_array()) throw std::invalid_argument("scene.effects must be an array (may be empty)");
+  int last_rank = -1;
+  bool light_path = false, shading_or_illumination = false;
+  for (size_t i = 0; i < effects.size(); ++i) {
+    const std::string where = fmt::format("scene.effects[{}]", i);
+    JsonFields f(effects[i], where);
+    const std::string name = f.text("effect", std::nullopt, kEffectOrder);
+    const int rank = static_cast<int>(std::find(kEffectOrder.begin(), kEffectOrder.end(), name) - kEffectOrder.begin());
+    if (name == "light_path") light_path = true;
+    if (name == "shading" || name == "illumination") shading_or_illumination = true;
+    if (light_path && shading_or_illumination)
+      throw std::invalid_argument(fmt::format(
+          "{}: \"light_path\" resolves into the shading light and the illumination field; list either "
+          "\"light_path\" or \"shading\"/\"illumination\", not both",
+          where));
+    if (rank <= last_rank)
+      throw std::invalid_argument(fmt::format(
+          "{}: \"{}\" is out of order or repeated: effects run in the physical order contact, "
+          "shading, illumination (or light_path instead of both), blur, vignetting, sensor, each at most once",
+          where, name));
+    last_rank = rank;
+    switch (rank) {
+      case 0: s.effects.emplace_back(parse_contact(f)); break;
+      case 1: s.effects.emplace_back(parse_shading(f)); break;
+      case 2: s.effects.emplace_back(parse_illumination(f)); break;
+      case 3: {
+        if (s.target != TargetKind::relief)
+          throw std::invalid_argument(where +
+                                      ": light_path shades a relief pressed into the gel; set target.kind to "
+                                      "\"relief\" (a printed target takes \"illumination\")");
+        if (!s.find<ContactEffect>())
+          throw std::invalid_argument(where +
+                                      ": light_path needs a contact effect before it: a rigid relief step has no "
+                                      "slope to shade, only the gel's smoothing creates one");
+        ResolvedLightPath lp = parse_light_path(f, s);
+        s.effects.emplace_back(std::move(lp.shading));
+        s.effects.emplace_back(std::move(lp.illumination));
+        s.light_path = std::move(lp.result);
+        break;
+      }
+      case 4: {
+        PsfOptions psf = parse_blur(f);
+        psf.validate();
+        s.effects.emplace_back(psf);
+        break;
+      }
+      case 5: s.effects.emplace_back(parse_vignetting(f)); break;
+      case 6: s.effects.emplace_back(parse_sensor(f)); break;
+    }
+    f.finish();
+  }
+}
+
 }  // namespace
 
 const char* effect_name(const Effect& e) {
+  // The variant's types; light_path is not one (it resolves into shading and
+  // illumination).
   static const char* kNames[] = {"contact", "shading", "illumination", "blur", "vignetting", "sensor"};
   return kNames[e.index()];
 }
@@ -231,35 +387,7 @@ Scene scene_from_json(const nlohmann::json& j, const std::filesystem::path& sour
     cf.finish();
   }
 
-  const nlohmann::json& effects = top.raw("effects");
-  if (!effects.is_array()) throw std::invalid_argument("scene.effects must be an array (may be empty)");
-  int last_rank = -1;
-  for (size_t i = 0; i < effects.size(); ++i) {
-    const std::string where = fmt::format("scene.effects[{}]", i);
-    JsonFields f(effects[i], where);
-    const std::string name = f.text("effect", std::nullopt, kEffectOrder);
-    const int rank = static_cast<int>(std::find(kEffectOrder.begin(), kEffectOrder.end(), name) - kEffectOrder.begin());
-    if (rank <= last_rank)
-      throw std::invalid_argument(fmt::format(
-          "{}: \"{}\" is out of order or repeated: effects run in the physical order contact, "
-          "shading, illumination, blur, vignetting, sensor, each at most once",
-          where, name));
-    last_rank = rank;
-    switch (rank) {
-      case 0: s.effects.emplace_back(parse_contact(f)); break;
-      case 1: s.effects.emplace_back(parse_shading(f)); break;
-      case 2: s.effects.emplace_back(parse_illumination(f)); break;
-      case 3: {
-        PsfOptions psf = parse_blur(f);
-        psf.validate();
-        s.effects.emplace_back(psf);
-        break;
-      }
-      case 4: s.effects.emplace_back(parse_vignetting(f)); break;
-      case 5: s.effects.emplace_back(parse_sensor(f)); break;
-    }
-    f.finish();
-  }
+  parse_effects(top.raw("effects"), s);
   top.finish();
 
   if (s.target == TargetKind::albedo && (s.find<ContactEffect>() || s.find<ShadingEffect>()))

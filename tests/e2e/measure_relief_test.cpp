@@ -27,6 +27,14 @@ void check_design(const std::string& design) {
   CHECK(m.pose.seen_from_behind);
   CHECK(m.reference.signature == Signature::shading);
   for (const auto& [measured, true_limit] : {std::pair(m.horizontal, truth.horizontal), std::pair(m.vertical, truth.vertical)}) {
+    // The light path decides which bar orientation the shading reaches
+    // (docs/LIGHT_PATH.md): with the LEDs on the sensor's x axis, horizontal
+    // bars get almost no in-plane light. An orientation the truth resolves
+    // nowhere must not be claimed by the measurement either.
+    if (!true_limit.any_resolved) {
+      CHECK_FALSE(measured.any_resolved);
+      continue;
+    }
     REQUIRE(true_limit.interpolated_lp_per_mm);
     REQUIRE(measured.interpolated_lp_per_mm);
     const double rel = *measured.interpolated_lp_per_mm / *true_limit.interpolated_lp_per_mm - 1;
@@ -48,8 +56,8 @@ TEST_CASE("relief through gel: T1C2 and T1C3 limits agree with the truth") {
   check_design("T1C3");
 }
 
-// T2: light guided through the elastomer, a hot spot beside the reference
-// patch and the coarse elements (light varying along the bars).
-TEST_CASE("relief through gel: T2C1-T2C4 (edge-lit, hot spot) limits agree with the truth") {
+// T2: light guided through the elastomer's edge: dimmer and more oblique
+// than T1 (docs/LIGHT_PATH.md).
+TEST_CASE("relief through gel: T2C1-T2C4 (edge-lit) limits agree with the truth") {
   for (const char* design : {"T2C1", "T2C2", "T2C3", "T2C4"}) check_design(design);
 }

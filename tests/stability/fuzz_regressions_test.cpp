@@ -86,7 +86,7 @@ TEST_CASE("fuzz: write the corpus seeds" * doctest::skip(std::getenv("TACTRES_WR
   put("layout_json", "one_group.json", layout_to_json(make_layout(small)).dump());
   // Scenes: the examples.
   for (const auto& f : fs::directory_iterator(source_dir() / "examples/scenes"))
-    put("scene_json", f.path().filename().string(), read_file(f.path()));
+    if (f.path().extension() == ".json") put("scene_json", f.path().filename().string(), read_file(f.path()));
   // Camera models: the examples, and other lens models mrcal knows.
   for (const auto& f : fs::directory_iterator(source_dir() / "examples/cameras"))
     if (f.path().extension() == ".cameramodel") put("camera_model", f.path().filename().string(), read_file(f.path()));

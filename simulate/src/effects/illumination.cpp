@@ -63,10 +63,13 @@ double disc_factor(double rho, double radius, double d) {
 }  // namespace
 
 void IlluminationOptions::validate() const {
-  if (shape != circle && shape != square && shape != rectangle)
+  if (shape != circle && shape != square && shape != rectangle && shape != mapped)
     throw std::invalid_argument(fmt::format(
         "illumination: aperture shape {} is unknown: use circle, square or rectangle",
         static_cast<int>(shape)));
+  if (shape == mapped && !map)
+    throw std::invalid_argument(
+        "illumination: a mapped field needs its irradiance map (the light_path effect makes it)");
   if (!(std::isfinite(aperture_width_mm) && aperture_width_mm > 0.0 && aperture_width_mm <= 1000.0))
     throw std::invalid_argument(fmt::format(
         "illumination: aperture_width_mm must be in (0, 1000] mm (the circle's diameter, the "
@@ -106,6 +109,7 @@ const char* to_string(IlluminationOptions::Shape shape) {
     case IlluminationOptions::circle: return "circle";
     case IlluminationOptions::square: return "square";
     case IlluminationOptions::rectangle: return "rectangle";
+    case IlluminationOptions::mapped: return "mapped";
   }
   return "unknown";
 }
@@ -119,6 +123,8 @@ IlluminationOptions::Shape illumination_shape_from_string(const std::string& nam
 }
 
 double aperture_view_factor(const IlluminationOptions& o, Vec2 p) {
+  if (o.shape == IlluminationOptions::mapped)
+    return o.map->irradiance_at({p.x - o.aperture_center_mm.x, p.y - o.aperture_center_mm.y});
   const double dx = o.aperture_center_mm.x - p.x, dy = o.aperture_center_mm.y - p.y;
   switch (o.shape) {
     case IlluminationOptions::circle:
@@ -130,6 +136,7 @@ double aperture_view_factor(const IlluminationOptions& o, Vec2 p) {
                                                                       : o.aperture_height_mm);
       return rectangle_factor(dx - hw, dy - hh, dx + hw, dy + hh, o.distance_mm);
     }
+    case IlluminationOptions::mapped: break;  // handled above
   }
   return 0.0;
 }
@@ -147,6 +154,11 @@ IlluminationField::IlluminationField(const IlluminationOptions& options, const R
     throw std::invalid_argument(fmt::format(
         "illumination: the grid tolerance must be in [1e-7, 0.1] (relative), got {}", tolerance));
   center_factor_ = aperture_view_factor(options_, options_.aperture_center_mm);
+  if (!(std::isfinite(center_factor_) && center_factor_ > 0.0))
+    throw std::invalid_argument(fmt::format(
+        "illumination: the irradiance at the aperture's foot point must be positive and finite "
+        "(it normalises the field), got {}",
+        center_factor_));
 
   // Hot spots go into the grid too when their width allows a moderate one
   // (then every query is one bilinear lookup); narrow spots over a large

@@ -13,6 +13,7 @@
 
 #include "tactres/profiles/criterion.h"
 #include "tactres/simulate/effects/illumination.h"
+#include "tactres/simulate/effects/light_path.h"
 #include "tactres/simulate/effects/psf.h"
 #include "tactres/simulate/effects/sensor_model.h"
 #include "tactres/targets/layout.h"
@@ -86,6 +87,10 @@ struct Scene {
   int supersampling = 2;                // sub-pixels per pixel side, [1, 16]
   Criterion criterion;
   std::vector<Effect> effects;          // physical order, each at most once
+  // When the file lists "light_path": what it resolved into `effects` (one
+  // ShadingEffect and one mapped IlluminationOptions) came from this, kept
+  // for reports and checks. Nothing downstream needs it.
+  std::optional<LightPathResult> light_path;
 
   std::array<double, 6> rt_camera_from_target(const TargetLayout& layout) const;
 

@@ -19,12 +19,16 @@
 // aperture's on-axis irradiance; `gain` scales everything (gain > 1 with the
 // sensor effect's full well drives over-exposure).
 //
-// Scope: this is the direct geometry of the T1 designs (light falls straight
-// onto the reflective layer). Light guided inside the elastomer (T2) is not
-// modelled; a T2 scene can only approximate it with this field.
+// Scope: this is the direct geometry of a uniform aperture (light falls
+// straight onto the reflective layer). A field computed by another model (the
+// `light_path` effect: LEDs, diffuser, refraction in the elastomer, light
+// guided through its edge; effects/light_path.h) comes in as the `mapped`
+// kind: an IrradianceMap that this class grids and normalises like the
+// closed forms, so the renderer sees one interface.
 
 #include <algorithm>
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -38,13 +42,27 @@ struct HotSpot {
   double peak_gain = 0.5;   // bump height relative to the on-axis irradiance, [0, 1000]
 };
 
+// An irradiance field computed elsewhere (effects/light_path.h), queried at
+// an offset from IlluminationOptions::aperture_center_mm in target mm. Any
+// unit; only ratios are used. Must be positive, finite and continuously
+// differentiable wherever it is queried (the grid below is refined against
+// it), and safe to call from many threads.
+class IrradianceMap {
+ public:
+  virtual ~IrradianceMap() = default;
+  virtual double irradiance_at(Vec2 offset_from_center_mm) const = 0;
+};
+
 struct IlluminationOptions {
   enum Shape {
     circle,     // disc of diameter aperture_width_mm
     square,     // side aperture_width_mm (aperture_height_mm is ignored)
     rectangle,  // aperture_width_mm along target x, aperture_height_mm along target y
+    mapped,     // `map` gives the field; the aperture sizes are ignored, and
+                // distance_mm is only the field's length scale (the grid's first step)
   };
   Shape shape = circle;
+  std::shared_ptr<const IrradianceMap> map;  // mapped only
   double aperture_width_mm = 15.0;   // (0, 1000]
   double aperture_height_mm = 15.0;  // (0, 1000], rectangle only
   // From the emitting aperture to the target plane, [0.5, 1000] mm.
@@ -62,7 +80,9 @@ const char* to_string(IlluminationOptions::Shape shape);
 IlluminationOptions::Shape illumination_shape_from_string(const std::string& name);
 
 // The configuration factor F from a target element at `target_mm` to the
-// aperture (E = pi L F), in closed form; no hot spots, no gain.
+// aperture (E = pi L F), in closed form; no hot spots, no gain. For a mapped
+// field: map->irradiance_at(target_mm - aperture_center_mm), a quantity
+// proportional to E (the ratios are what the field uses).
 double aperture_view_factor(const IlluminationOptions& options, Vec2 target_mm);
 
 // The field, normalised so that the aperture's foot point (aperture_center_mm)
