@@ -99,8 +99,8 @@ Command report_command() {
               fmt::print("{} design(s) from {} measurement(s) against the reference {} ({}){}\n", c.designs.size(),
                          c.measurements.size(), c.reference_row.design, c.reference.path.string(),
                          failed ? fmt::format("; {} failed", failed) : "");
-              fmt::print("  {:<4} {:<16} {:>26} {:>26}\n", "rank", "design", "H lp/mm (% raw CMOS)",
-                         "V lp/mm (% raw CMOS)");
+              fmt::print("  {:<4} {:<16} {:>26} {:>26}  {}\n", "rank", "design", "H lp/mm (% raw CMOS)",
+                         "V lp/mm (% raw CMOS)", "limited by H/V; light needed");
               fmt::print("  {:<4} {:<16} {:>26} {:>26}\n", "ref", c.reference_row.design,
                          limit_summary(c.reference_row.horizontal), limit_summary(c.reference_row.vertical));
               for (const DesignRow& r : c.designs) {
@@ -108,8 +108,12 @@ Command report_command() {
                   fmt::print("  {:<4} {:<16} failed: {}\n", "-", r.design, r.problems.empty() ? "" : r.problems[0]);
                   continue;
                 }
-                fmt::print("  {:<4} {:<16} {:>26} {:>26}\n", r.rank ? std::to_string(*r.rank) : "-", r.design,
-                           limit_summary(r.horizontal), limit_summary(r.vertical));
+                auto factor = [](const OrientationParts& p) {
+                  return p.limited_by == LimitedBy::unknown ? "n/a" : to_string(p.limited_by);
+                };
+                fmt::print("  {:<4} {:<16} {:>26} {:>26}  {}/{}; {}\n", r.rank ? std::to_string(*r.rank) : "-",
+                           r.design, limit_summary(r.horizontal), limit_summary(r.vertical), factor(r.horizontal_parts),
+                           factor(r.vertical_parts), light_needed_text(r.light_needed_factor));
               }
               if (c.nyquist_h_lp_per_mm > 0)
                 fmt::print("  camera sampling (Nyquist) limit: H {:.2f}, V {:.2f} lp/mm\n", c.nyquist_h_lp_per_mm,

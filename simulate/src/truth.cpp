@@ -145,7 +145,7 @@ void decide_true_limits(Truth& t, const Criterion& criterion) {
     std::sort(cnr.begin(), cnr.end(), by_f);
     const Limit optical = find_limit(m, exact);
     // Noise-free: nothing limits detection, so the optics alone decide.
-    LimitBreakdown parts = noise_free ? LimitBreakdown{optical, optical, LimitingFactor::optics}
+    LimitBreakdown parts = noise_free ? LimitBreakdown{optical, optical, LimitingFactor::optics, std::nullopt}
                                       : combine_limits(optical, find_detectability_limit(cnr, t.detectability));
     if (!noise_free) parts.light_needed = light_needed_factor(cnr, optical, t.detectability);
     const bool h = o == BarOrientation::horizontal_bars;

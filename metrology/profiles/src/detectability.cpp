@@ -101,7 +101,7 @@ int compare_limits(const Limit& a, const Limit& b) {
 }  // namespace
 
 LimitBreakdown combine_limits(const Limit& optical, const Limit& detectability) {
-  LimitBreakdown b{optical, detectability, LimitingFactor::optics};
+  LimitBreakdown b{optical, detectability, LimitingFactor::optics, std::nullopt};
   if (compare_limits(detectability, optical) < 0) b.limited_by = LimitingFactor::light_noise;
   return b;
 }

@@ -5,7 +5,7 @@
 // the file and the field.
 //
 // Fields that reports do not use are ignored rather than refused: measure
-// owns the schema and may add fields within version 1, and a report must
+// owns the schema and may add fields within a version, and a report must
 // not break when it does. The schema string itself must match.
 
 #include <filesystem>
