@@ -74,15 +74,20 @@ Command simulate_command() {
               tj["layout"] = layout_source;
               write_file_atomically(truth_path, tj.dump(2) + "\n");
 
-              auto limit_text = [](const Limit& l) {
-                if (!l.any_resolved) return std::string("none resolved");
-                return fmt::format("G{}E{} {:.2f} lp/mm (interpolated {})", l.group, l.element, l.lp_per_mm,
+              // The reported (coarser) true limit, and when the light limits it.
+              auto limit_text = [](const LimitBreakdown& parts) {
+                const Limit& l = parts.reported();
+                const std::string by =
+                    parts.limited_by == LimitingFactor::light_noise ? " [limited by light/noise]" : "";
+                if (!l.any_resolved) return "none resolved" + by;
+                return fmt::format("G{}E{} {:.2f} lp/mm (interpolated {}){}", l.group, l.element, l.lp_per_mm,
                                    l.interpolated_lp_per_mm ? fmt::format("{:.2f}", *l.interpolated_lp_per_mm)
-                                                            : std::string("n/a"));
+                                                            : std::string("n/a"),
+                                   by);
               };
               fmt::print("{}: {} {}x{} in {:.2f} s; true limit H {}, V {}; truth {}{}\n", scene.design,
-                         out.string(), r.image.cols, r.image.rows, seconds, limit_text(truth.horizontal),
-                         limit_text(truth.vertical), truth_path.string(),
+                         out.string(), r.image.cols, r.image.rows, seconds, limit_text(truth.horizontal_parts),
+                         limit_text(truth.vertical_parts), truth_path.string(),
                          scene.layout_path ? "" : fmt::format("; layout: {}", layout_source));
               return int(kExitOk);
             };
