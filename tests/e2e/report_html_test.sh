@@ -101,6 +101,24 @@ else
   fail "chromium could not take a screenshot"
 fi
 
+# --- measurement/2 files: the CNR(f) charts too -----------------------------------
+# tests/data/report_v2: the main job's cmos, T1C1 and T2C1 measurements,
+# with detectability: m(f) and CNR(f) per orientation plus the bar chart.
+v2="$src/tests/data/report_v2"
+"$tactres" report "$v2"/T*.json --reference "$v2/cmos.json" --html "$work/v2.html" >/dev/null 2>"$work/v2.err" ||
+  fail "report on measurement/2 files failed: $(cat "$work/v2.err")"
+if browse dom "$work/v2.html" "$work/v2.dom"; then
+  body=$(grep -o '<body[^>]*>' "$work/v2.dom" | head -n 1)
+  if echo "$body" | grep -q 'data-charts-rendered="5"' && ! echo "$body" | grep -q 'data-script-error'; then
+    echo "ok: measurement/2 page draws 5 charts (bars, m(f) and CNR(f) per orientation)"
+  else
+    fail "measurement/2 page: $(echo "$body" | grep -o 'data-[a-z-]*="[^"]*"' | tr '\n' ' '), expected 5 charts"
+  fi
+  grep -q 'Rose threshold' "$work/v2.dom" || grep -q 'Rose' "$work/v2.html" || fail "measurement/2 page does not name the Rose threshold"
+else
+  fail "chromium could not load the measurement/2 report"
+fi
+
 # --- The checks can fail ------------------------------------------------------
 # One design fewer: the row count no longer matches.
 mkdir -p "$work/fewer"
