@@ -41,10 +41,11 @@ void pool_noise(std::vector<ElementResult>& elements, size_t first, const std::v
   if (pool.empty())  // a chart photograph of fine groups only
     for (size_t i = first; i < elements.size(); ++i)
       if (elements[i].status == ElementStatus::ok) pool.push_back(strips[i - first]);
+  if (pool.empty()) return;  // no ok element: nothing to give a CNR
   std::vector<std::pair<double, const SampledProfile*>> sd(pool.size());
   for (size_t i = first; i < elements.size(); ++i) {
     ElementResult& r = elements[i];
-    if (r.status != ElementStatus::ok || pool.empty()) continue;
+    if (r.status != ElementStatus::ok) continue;
     for (size_t k = 0; k < pool.size(); ++k) sd[k] = {pool[k]->noise_sd_at(r.mean_level), pool[k]};
     std::nth_element(sd.begin(), sd.begin() + sd.size() / 2, sd.end());
     const auto [noise_sd, median] = sd[sd.size() / 2];

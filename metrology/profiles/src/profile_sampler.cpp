@@ -1,9 +1,9 @@
 #include "tactres/profiles/profile_sampler.h"
 
 #include <algorithm>
-#include <tuple>
 #include <cmath>
 #include <stdexcept>
+#include <tuple>
 
 #include <opencv2/core.hpp>
 
@@ -302,38 +302,33 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   // variances of the flattest half of the bins. Dark bars are much quieter
   // than bright ground under shot noise; one pooled variance would overstate
   // the noise of the bars and understate it on the ground.
-  VarianceLine spread_line;
+  // Beside it, the detectability noise model (SampledProfile::noise_var_*)
+  // from the same bins: the residual after a plane in (u, v) per bin, so
+  // that the signal change across a bin's quarter pixel does not count as
+  // noise (it inflates the spread by ~12 % on simulated captures, where the
+  // noise is known).
+  VarianceLine spread_line, residual_line;
   for (size_t k = 0; k < (flatness.size() + 1) / 2; ++k) {
     const int b = flatness[k].second;
     const double n = d.count[b];
-    // Residual sum of squares after a straight line in v.
     const double sxx = sum2[b] - sum[b] * sum[b] / n;
     const double svv = sum_vv[b] - sum_v[b] * sum_v[b] / n;
     const double sxv = sum_xv[b] - sum[b] * sum_v[b] / n;
-    spread_line.add(n - 2, d.value[b], std::max(0.0, svv > 0 ? sxx - sxv * sxv / svv : sxx) / (n - 2));
+    // Residual sum of squares after a straight line in v.
+    const double explained_v = svv > 0 ? sxv * sxv / svv : 0.0;
+    spread_line.add(n - 2, d.value[b], std::max(0.0, sxx - explained_v) / (n - 2));
+    if (n < 5) continue;
+    // After a plane in (u, v): RSS = Sxx - c^T M^-1 c, M the (u, v) scatter, c = (Sxu, Sxv).
+    const double suu = sum_uu[b] - sum_u[b] * sum_u[b] / n, suv = sum_uv[b] - sum_u[b] * sum_v[b] / n;
+    const double sxu = sum_xu[b] - sum[b] * sum_u[b] / n;
+    const double det = suu * svv - suv * suv;
+    const double explained_uv = det > 1e-12 * (suu * svv + 1e-300)
+                                    ? (svv * sxu * sxu - 2 * suv * sxu * sxv + suu * sxv * sxv) / det
+                                    : explained_v;
+    residual_line.add(n - 3, d.value[b], std::max(0.0, sxx - explained_uv) / (n - 3));
   }
   const auto [a, slope] = spread_line.fit();
   const double s_w = spread_line.s_w, s_x = spread_line.s_x;
-  // The detectability noise model: the same bins, but the residual after a
-  // plane in (u, v) per bin, so that the signal change across a bin's
-  // quarter pixel does not count as noise (it inflates the spread above by
-  // ~12 % on simulated captures, where the noise is known).
-  VarianceLine residual_line;
-  for (size_t k = 0; k < (flatness.size() + 1) / 2; ++k) {
-    const int b = flatness[k].second;
-    const double n = d.count[b];
-    if (n < 5) continue;
-    const double sxx = sum2[b] - sum[b] * sum[b] / n;
-    const double suu = sum_uu[b] - sum_u[b] * sum_u[b] / n, svv = sum_vv[b] - sum_v[b] * sum_v[b] / n;
-    const double suv = sum_uv[b] - sum_u[b] * sum_v[b] / n;
-    const double sxu = sum_xu[b] - sum[b] * sum_u[b] / n, sxv = sum_xv[b] - sum[b] * sum_v[b] / n;
-    const double det = suu * svv - suv * suv;
-    // RSS = Sxx - c^T M^-1 c with M the (u, v) scatter and c = (Sxu, Sxv).
-    const double explained =
-        det > 1e-12 * (suu * svv + 1e-300) ? (svv * sxu * sxu - 2 * suv * sxu * sxv + suu * sxv * sxv) / det
-                                           : (svv > 0 ? sxv * sxv / svv : 0.0);
-    residual_line.add(n - 3, d.value[b], std::max(0.0, sxx - explained) / (n - 3));
-  }
   std::tie(out.noise_var_offset, out.noise_var_per_level) = residual_line.fit();
   out.noise_dof = residual_line.s_w;
   const double floor_sd = 2e-3 * (level_n ? level / level_n : 1.0);
