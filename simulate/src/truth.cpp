@@ -136,18 +136,13 @@ void decide_true_limits(Truth& t, const Criterion& criterion) {
     for (const TruthElement& te : t.elements)
       if (te.orientation == o) {
         m.push_back({te.group, te.element, te.lp_per_mm, te.m, 0.0, te.in_view});
-        cnr.push_back({te.group, te.element, te.lp_per_mm, te.cnr.value_or(0.0), 0.0, te.in_view && te.cnr});
-        cnr.back().shot_fraction = te.shot_fraction;
+        cnr.push_back({te.group, te.element, te.lp_per_mm, te.cnr.value_or(0.0), 0.0, te.in_view && te.cnr, false,
+                       te.shot_fraction});
         noise_free = noise_free && !te.cnr;
       }
-    auto by_f = [](const auto& a, const auto& b) { return a.lp_per_mm < b.lp_per_mm; };
-    std::sort(m.begin(), m.end(), by_f);
-    std::sort(cnr.begin(), cnr.end(), by_f);
-    const Limit optical = find_limit(m, exact);
+    LimitBreakdown parts = decide_breakdown(std::move(m), std::move(cnr), exact, t.detectability);
     // Noise-free: nothing limits detection, so the optics alone decide.
-    LimitBreakdown parts = noise_free ? LimitBreakdown{optical, optical, LimitingFactor::optics, std::nullopt}
-                                      : combine_limits(optical, find_detectability_limit(cnr, t.detectability));
-    if (!noise_free) parts.light_needed = light_needed_factor(cnr, optical, t.detectability);
+    if (noise_free) parts = LimitBreakdown{parts.optical, parts.optical, LimitingFactor::optics, std::nullopt};
     const bool h = o == BarOrientation::horizontal_bars;
     (h ? t.horizontal_parts : t.vertical_parts) = parts;
     (h ? t.horizontal : t.vertical) = parts.reported();

@@ -118,27 +118,17 @@ bool is_unmeasured(ElementStatus s, bool chart_photograph) {
 
 void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,
                    bool chart_photograph) {
-  std::vector<OrientedPoint> pts;
-  for (const ElementResult& r : M.elements) {
-    MPoint p{r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok};
-    p.unmeasured = is_unmeasured(r.status, chart_photograph);
-    pts.push_back({r.orientation, p});
-  }
-  const Limits optical = find_limits(pts, criterion);
   for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+    std::vector<MPoint> m;
     std::vector<CnrPoint> cnr;
-    for (const ElementResult& r : M.elements)
-      if (r.orientation == o) {
-        CnrPoint p{r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, r.status == ElementStatus::ok};
-        p.unmeasured = is_unmeasured(r.status, chart_photograph);
-        p.shot_fraction = r.noise_shot_fraction;
-        cnr.push_back(p);
-      }
-    std::sort(cnr.begin(), cnr.end(), [](const CnrPoint& a, const CnrPoint& b) { return a.lp_per_mm < b.lp_per_mm; });
+    for (const ElementResult& r : M.elements) {
+      if (r.orientation != o) continue;
+      const bool ok = r.status == ElementStatus::ok, unmeasured = is_unmeasured(r.status, chart_photograph);
+      m.push_back({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok, unmeasured});
+      cnr.push_back({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, ok, unmeasured, r.noise_shot_fraction});
+    }
+    const LimitBreakdown parts = decide_breakdown(std::move(m), std::move(cnr), criterion, detectability);
     const bool h = o == BarOrientation::horizontal_bars;
-    const Limit& optical_limit = h ? optical.horizontal : optical.vertical;
-    LimitBreakdown parts = combine_limits(optical_limit, find_detectability_limit(cnr, detectability));
-    parts.light_needed = light_needed_factor(cnr, optical_limit, detectability);
     (h ? M.horizontal_parts : M.vertical_parts) = parts;
     (h ? M.horizontal : M.vertical) = parts.reported();
   }

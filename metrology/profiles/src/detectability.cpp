@@ -106,6 +106,17 @@ LimitBreakdown combine_limits(const Limit& optical, const Limit& detectability) 
   return b;
 }
 
+LimitBreakdown decide_breakdown(std::vector<MPoint> m, std::vector<CnrPoint> cnr, const Criterion& c,
+                                const DetectabilityCriterion& d) {
+  auto by_frequency = [](const auto& a, const auto& b) { return a.lp_per_mm < b.lp_per_mm; };
+  std::sort(m.begin(), m.end(), by_frequency);
+  std::sort(cnr.begin(), cnr.end(), by_frequency);
+  const Limit optical = find_limit(m, c);
+  LimitBreakdown b = combine_limits(optical, find_detectability_limit(cnr, d));
+  b.light_needed = light_needed_factor(cnr, optical, d);
+  return b;
+}
+
 nlohmann::json breakdown_to_json(const LimitBreakdown& b, const DetectabilityCriterion& c) {
   nlohmann::json j = limit_to_json(b.reported());
   j["limited_by"] = to_string(b.limited_by);

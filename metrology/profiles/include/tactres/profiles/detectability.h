@@ -104,6 +104,13 @@ struct LimitBreakdown {
 // interpolated value; a tie goes to the optics.
 LimitBreakdown combine_limits(const Limit& optical, const Limit& detectability);
 
+// One orientation's limits from the m and the CNR points of its elements,
+// each in any order: the optical limit under `c`, the detectability limit
+// under `d`, the coarser of the two, and the light needed. The truth and the
+// measurement both decide by it.
+LimitBreakdown decide_breakdown(std::vector<MPoint> m, std::vector<CnrPoint> cnr, const Criterion& c,
+                                const DetectabilityCriterion& d);
+
 // limit_to_json(reported) plus "limited_by", "optical": {...} and
 // "detectability": {..., "k"}: a reader of the plain limit fields gets the
 // reported limit.
