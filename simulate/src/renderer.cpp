@@ -39,11 +39,8 @@ struct TargetRadiance::Impl {
         light_dirs.push_back({li.weight * std::cos(el) * std::cos(az), li.weight * std::cos(el) * std::sin(az),
                               li.weight * std::sin(el)});
       }
-    if (const IlluminationOptions* ill = s.find<IlluminationOptions>()) {
-      IlluminationOptions o = *ill;
-      if (std::isnan(o.aperture_center_mm.x)) o.aperture_center_mm = {0.5 * l.width_mm, 0.5 * l.height_mm};
-      light.emplace(o, RectMm{-0.5 * l.width_mm, -0.5 * l.height_mm, 1.5 * l.width_mm, 1.5 * l.height_mm});
-    }
+    if (const IlluminationOptions* ill = s.find<IlluminationOptions>())
+      light.emplace(target_illumination(*ill, l.width_mm, l.height_mm));
   }
 
   double coverage(const Vec2 quad[4]) const {

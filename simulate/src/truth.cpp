@@ -92,12 +92,8 @@ void set_true_cnr(Truth& t, const Scene& scene, const TargetLayout& layout, cons
   const SensorOptions* sensor = scene.find<SensorOptions>();
   if (!sensor) return;
   std::optional<IlluminationField> light;
-  if (const IlluminationOptions* ill = scene.find<IlluminationOptions>()) {
-    IlluminationOptions o = *ill;  // as the renderer resolves it
-    if (std::isnan(o.aperture_center_mm.x)) o.aperture_center_mm = {0.5 * layout.width_mm, 0.5 * layout.height_mm};
-    light.emplace(o, RectMm{-0.5 * layout.width_mm, -0.5 * layout.height_mm, 1.5 * layout.width_mm,
-                            1.5 * layout.height_mm});
-  }
+  if (const IlluminationOptions* ill = scene.find<IlluminationOptions>())
+    light.emplace(target_illumination(*ill, layout.width_mm, layout.height_mm));  // as the renderer has it
   const double dn_per_input = sensor_mean_dn(*sensor, 1.0) - sensor_mean_dn(*sensor, 0.0);
   for (size_t i = 0; i < t.elements.size(); ++i) {
     TruthElement& te = t.elements[i];

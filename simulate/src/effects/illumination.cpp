@@ -271,4 +271,9 @@ double IlluminationField::exact_relative_irradiance(Vec2 p) const {
   return options_.gain * (base_exact(p) + hot_spots_at(p));
 }
 
+IlluminationField target_illumination(IlluminationOptions options, double width_mm, double height_mm) {
+  if (std::isnan(options.aperture_center_mm.x)) options.aperture_center_mm = {0.5 * width_mm, 0.5 * height_mm};
+  return IlluminationField(options, RectMm{-0.5 * width_mm, -0.5 * height_mm, 1.5 * width_mm, 1.5 * height_mm});
+}
+
 }  // namespace tactres

@@ -160,4 +160,9 @@ class IlluminationField {
   bool grid_has_hot_spots_ = false;
 };
 
+// The field over a target of width x height mm, as the renderer and the
+// truth both use it: an unset aperture centre (NaN, scene.h) is the target
+// centre, and the grid covers the target with half its size as margin.
+IlluminationField target_illumination(IlluminationOptions options, double width_mm, double height_mm);
+
 }  // namespace tactres
