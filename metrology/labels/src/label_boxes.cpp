@@ -98,12 +98,12 @@ void LabelBoxSearch::validate() const {
   if (ink == Ink::automatic) throw std::invalid_argument("labels: find_label_boxes needs Ink::dark or Ink::light");
 }
 
-std::vector<cv::Rect> find_label_boxes(const cv::Mat& luminance, const LabelBoxSearch& search) {
-  search.validate();
-  const cv::Mat grey = labels_detail::to_float_grey(luminance);
+namespace {
+
+// The boxes of one band of character heights (search's min..max), found
+// with an ink threshold whose window suits that band.
+std::vector<cv::Rect> boxes_in_band(const cv::Mat& grey, const cv::Rect& region, const LabelBoxSearch& search) {
   const cv::Rect image(0, 0, grey.cols, grey.rows);
-  const cv::Rect region = search.search_px.empty() ? image : search.search_px & image;
-  if (region.width < 3 || region.height < 3) return {};
   const cv::Mat ink = ink_mask(grey(region), search);
   const std::vector<Blob> blobs = labels_detail::find_blobs(ink);
   const std::vector<bool> bars = labels_detail::bar_blobs(blobs);
@@ -163,6 +163,36 @@ std::vector<cv::Rect> find_label_boxes(const cv::Mat& luminance, const LabelBoxS
   for (size_t i = 0; i < boxes.size(); ++i) {
     const int pad = static_cast<int>(std::ceil(0.25 * heights[i]));
     boxes[i] = (boxes[i] + region.tl() - cv::Point(pad, pad) + cv::Size(2 * pad, 2 * pad)) & image;
+  }
+  return boxes;
+}
+
+}  // namespace
+
+// Character heights are searched in bands of a factor 2 (overlapping by a
+// quarter, so that a number's two digits fall in one band): one ink
+// threshold over the whole range would take its local extremes from the
+// largest features (the square, the coarse bars) and lose the small,
+// dimmer numbers beside the fine elements.
+std::vector<cv::Rect> find_label_boxes(const cv::Mat& luminance, const LabelBoxSearch& search) {
+  search.validate();
+  const cv::Mat grey = labels_detail::to_float_grey(luminance);
+  const cv::Rect image(0, 0, grey.cols, grey.rows);
+  const cv::Rect region = search.search_px.empty() ? image : search.search_px & image;
+  if (region.width < 3 || region.height < 3) return {};
+  std::vector<cv::Rect> boxes;
+  for (double lo = search.min_char_height_px; lo <= search.max_char_height_px; lo *= 2) {
+    LabelBoxSearch band = search;
+    band.min_char_height_px = lo;
+    band.max_char_height_px = std::min(search.max_char_height_px, 2.5 * lo);
+    for (const cv::Rect& b : boxes_in_band(grey, region, band)) {
+      // The same number found in two bands: keep the first.
+      const bool seen = std::any_of(boxes.begin(), boxes.end(), [&](const cv::Rect& k) {
+        return (k & b).area() > 0.5 * std::min(k.area(), b.area());
+      });
+      if (!seen) boxes.push_back(b);
+    }
+    if (band.max_char_height_px >= search.max_char_height_px) break;
   }
   std::sort(boxes.begin(), boxes.end(),
             [](const cv::Rect& a, const cv::Rect& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });

@@ -22,38 +22,10 @@ namespace tactres::locate_detail {
 
 namespace {
 
-// The arrangement's element positions: groups 0..3 of the generated chart
-// (two nested pairs), so that any step of up to 12 elements from an index
-// in 0..11 stays inside it. Index n = 6 g + e - 1; centre of the H triplet
-// and bar width, mm.
-struct ArrangementModel {
-  std::vector<Vec2> h_center_mm;
-  std::vector<double> bar_width_mm;
-};
-
-const ArrangementModel& arrangement_model() {
-  static const ArrangementModel model = [] {
-    MilStdChartOptions o;
-    o.first_group = 0;
-    o.last_group = 3;
-    const TargetLayout L = make_mil_std_chart(o);
-    ArrangementModel m;
-    m.h_center_mm.resize(24);
-    m.bar_width_mm.resize(24);
-    for (const ElementLayout& e : L.elements)
-      if (e.orientation == BarOrientation::horizontal_bars) {
-        const int n = 6 * e.group + e.element - 1;
-        m.h_center_mm[n] = e.extent_mm().center_mm();
-        m.bar_width_mm[n] = e.bar_width_mm;
-      }
-    return m;
-  }();
-  return model;
-}
-
-// A found element's own frame: chart x along H -> V (the H triplet is left
-// of the V triplet on the chart), chart y (down) perpendicular to it, sign
-// by handedness; unit = the element's bar width in px.
+// A found element's own frame: chart x along H -> V, chart y (down)
+// perpendicular to it, sign by handedness; unit = the element's bar width
+// in px. Used to place the seven-segment group labels of the generated
+// chart (read_group_label), whose triplets all stand H left of V.
 struct ElementFrame {
   Vec2 origin_px;  // centre of the H triplet
   Vec2 ex;
@@ -76,62 +48,117 @@ ElementFrame frame_of(const ChartDetection& D, const ChartElement& e, double bar
   return f;
 }
 
+// Where index n (modulo 12) stands in a pair of groups (chart_detect.h):
+// 1..5 are the even group's elements 2..6 down the left column, 6..11 the
+// odd group's elements 1..6 down the right column, 0 the even group's
+// element 1 at the lower right.
+int column_of(int n) {
+  const int m = ((n % 12) + 12) % 12;
+  return m == 0 ? 0 : m <= 5 ? 1 : 2;
+}
+
+// Which side of its V triplet an element's H triplet stands on: on
+// MIL-STD-150A charts as made (Thorlabs, Edmund, printed copies) the H
+// triplet is left of the V triplet in the even group's column and right of
+// it elsewhere (the odd group's column and the even group's element 1); on
+// the chart tactres generates it is left everywhere. +1: left.
+int h_side(int n, bool generated_style) { return generated_style || column_of(n) == 1 ? 1 : -1; }
+
 }  // namespace
 
-// Phase (index of relative index 0, modulo 12) and handedness: the
-// hypothesis under which the most steps between found elements (up to 12
-// indices apart) land where the arrangement puts them. Each element's bar
-// width comes from the series (field.bar_px), not from its binarised
-// period, which blur overstates.
+// Phase (index of relative index 0, modulo 12) and handedness from the
+// topology of the arrangement, which every maker keeps while the spacings
+// differ between them (a column step is 6.5 bar widths on one real chart
+// and 8 on another, 7.5 on the generated one):
+// - two found elements of one column, up to 5 indices apart, stand one
+//   below the other, 5-10 bar widths a step; any other two are not so;
+// - each element's H triplet stands on the side h_side says, as seen with
+//   the column running down (a mirror swaps the sides).
+// Every hypothesis (phase, mirror, which way is down, maker's style) is
+// scored by how many of these observations it explains; the best wins when
+// it explains nearly all and clearly more than any other phase or
+// handedness.
 void recognise_arrangement(ChartDetection& D, const ScaleField& field) {
-  const ArrangementModel& M = arrangement_model();
   auto& A = D.arrangement;
-  struct Hyp {
-    int phase;
-    bool mirrored;
-    int matched = 0, checked = 0;
-  };
-  std::vector<Hyp> hyps;
-  for (int p = 0; p < 12; ++p)
-    for (bool mirrored : {false, true}) {
-      Hyp h{p, mirrored};
-      for (size_t i = 0; i < D.elements.size(); ++i) {
-        const ChartElement& a = D.elements[i];
-        const ElementFrame f = frame_of(D, a, field.bar_px(D, a), mirrored);
-        const int na = a.relative_index + p, base = na - na % 12;
-        for (size_t j = 0; j < D.elements.size(); ++j) {
-          const ChartElement& b = D.elements[j];
-          const int dk = b.relative_index - a.relative_index;
-          if (dk < 1 || dk > 12) continue;
-          const int ma = na - base, mb = ma + dk;
-          const Vec2 want = (1.0 / M.bar_width_mm[ma]) * (M.h_center_mm[mb] - M.h_center_mm[ma]);
-          const Vec2 got = f.to_chart(D.patterns[b.h].center_px);
-          ++h.checked;
-          if (norm(got - want) <= 0.15 * norm(want) + 2.0) ++h.matched;
-        }
-      }
-      hyps.push_back(h);
-    }
-  std::sort(hyps.begin(), hyps.end(), [](const Hyp& a, const Hyp& b) { return a.matched > b.matched; });
-  const Hyp& best = hyps.front();
-  A.steps_checked = best.checked;
-  A.steps_matched = best.matched;
-  const int runner_up = hyps.size() > 1 ? hyps[1].matched : 0;
-  if (best.checked < 4 || best.matched < 4 || best.matched < 0.8 * best.checked) {
-    A.note = fmt::format("arrangement not recognised: {} of {} steps between the elements found fit the standard "
-                         "arrangement at best",
-                         best.matched, best.checked);
+  const std::vector<ChartElement>& E = D.elements;
+  if (E.size() < 2) {
+    A.note = "arrangement not recognised: fewer than two elements found";
     return;
   }
-  if (best.matched - runner_up < 2) {
+  // The chart's y axis: across the H triplets' bars (one sign for all).
+  const Vec2 y_axis = perp(D.patterns[E.front().h].bar_dir);
+  std::vector<int> side;  // +1: H left of V with y_axis down, unmirrored
+  for (const ChartElement& e : E) {
+    const Vec2 hv = D.patterns[e.v].center_px - D.patterns[e.h].center_px;
+    side.push_back(hv.x * y_axis.y - hv.y * y_axis.x > 0 ? 1 : -1);
+  }
+  // Column steps as seen: for each pair i < j at most 5 indices apart, the
+  // signed distance along y_axis in units of the bar widths stepped over.
+  struct Step {
+    size_t i, j;
+    double along_w;  // > 0: j below i along +y_axis
+    bool straight;   // little sideways motion
+  };
+  std::vector<Step> steps;
+  for (size_t i = 0; i < E.size(); ++i)
+    for (size_t j = i + 1; j < E.size(); ++j) {
+      const int dk = E[j].relative_index - E[i].relative_index;
+      if (dk < 1 || dk > 5) continue;
+      double sum_w = 0;
+      for (int k = 0; k < dk; ++k) sum_w += field.bar_px(D, E[i]) * std::exp2(-k / 6.0);
+      const Vec2 d = D.patterns[E[j].h].center_px - D.patterns[E[i].h].center_px;
+      const double along = dot(d, y_axis), across = dot(d, perp(y_axis));
+      steps.push_back({i, j, along / sum_w, std::abs(across) < 0.3 * std::abs(along)});
+    }
+  struct Hyp {
+    int phase = 0;
+    bool mirrored = false;
+    int matched = 0;
+    bool generated = false;
+    int down = 1;
+  };
+  std::vector<Hyp> best_per;  // the best of each (phase, mirror)
+  const int checked = static_cast<int>(E.size() + steps.size());
+  for (int p = 0; p < 12; ++p)
+    for (bool mirrored : {false, true}) {
+      Hyp h{p, mirrored, -1};
+      for (int down : {1, -1})
+        for (bool generated : {false, true}) {
+          int matched = 0;
+          for (size_t i = 0; i < E.size(); ++i)
+            matched += side[i] * down * (mirrored ? -1 : 1) == h_side(E[i].relative_index + p, generated);
+          for (const Step& s : steps) {
+            const int na = E[s.i].relative_index + p, nb = E[s.j].relative_index + p;
+            const bool same_column = na / 12 == nb / 12 && column_of(na) != 0 && column_of(na) == column_of(nb);
+            const double along = down * s.along_w;
+            matched += same_column == (s.straight && along >= 5 && along <= 10);
+          }
+          if (matched > h.matched) h.matched = matched, h.generated = generated, h.down = down;
+        }
+      best_per.push_back(h);
+    }
+  std::sort(best_per.begin(), best_per.end(), [](const Hyp& a, const Hyp& b) { return a.matched > b.matched; });
+  const Hyp& best = best_per.front();
+  const int runner_up = best_per[1].matched;
+  A.steps_checked = checked;
+  A.steps_matched = best.matched;
+  if (E.size() < 4 || best.matched < checked - std::max(1, checked / 10)) {
+    A.note = fmt::format("arrangement not recognised: {} of {} observations (element sides and column steps) fit "
+                         "the standard arrangement at best",
+                         best.matched, checked);
+    return;
+  }
+  if (best.matched - runner_up < 3) {
     A.note = fmt::format("arrangement not recognised: the elements found fit it in more than one way ({} and {} "
-                         "of {} steps); too little of the chart is in view",
-                         best.matched, runner_up, best.checked);
+                         "of {} observations); too little of the chart is in view",
+                         best.matched, runner_up, checked);
     return;
   }
   A.recognised = true;
   A.phase = best.phase;
   A.mirrored = best.mirrored;
+  A.generated_style = best.generated;
+  A.down_px = double(best.down) * y_axis;
 }
 
 namespace {

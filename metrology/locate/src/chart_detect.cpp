@@ -225,7 +225,9 @@ void anchor_by_arrangement(ChartDetection& D, const std::vector<ChartElement>& k
   }
   std::optional<int> shift;  // in pairs of groups (12 indices)
   bool agree = true;
+  // The seven-segment group labels are the generated chart's (glyphs.h).
   for (const ChartElement& e : kept) {
+    if (!A.generated_style) break;
     const int n = e.relative_index + A.phase, n12 = n % 12;
     if (n12 != 1 && n12 != 6) continue;  // the tops of the columns, under the labels
     const int model_group = n / 6;
@@ -237,8 +239,8 @@ void anchor_by_arrangement(ChartDetection& D, const std::vector<ChartElement>& k
     shift = s;
   }
   const std::string known = fmt::format(
-      "the standard arrangement is recognised ({} of {} steps between elements fit it{}): it fixes each element's number and its "
-      "group's parity",
+      "the standard arrangement is recognised ({} of {} observations fit it: the side of each element's H triplet and the "
+      "steps down the columns{}): it fixes each element's number and its group's parity",
       A.steps_matched, A.steps_checked, A.mirrored ? "; mirrored" : "");
   if (shift && agree) {
     D.largest_index = A.phase + 12 * *shift;
@@ -282,7 +284,9 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const Scal
     if (D.anchor != ChartAnchor::none) return;
     // Another typeface than the generator's: read the numbers by OCR.
     std::string note;
-    if (anchor_by_printed_numbers(D, kept, img, note)) {
+    const std::optional<int> phase =
+        D.arrangement.recognised ? std::optional<int>(D.arrangement.phase) : std::nullopt;
+    if (anchor_by_printed_numbers(D, kept, img, phase, note)) {
       D.anchor = ChartAnchor::printed_numbers;
       D.anchor_description = "printed numbers: " + note;
     } else {

@@ -76,8 +76,9 @@ void predict_column_ends(ChartDetection& D);
 
 // The anchor from the printed group and element numbers, read by OCR
 // (chart_labels.cpp): sets D.largest_index and returns true when the
-// numbers read fix it; `note` says what was read, or why not.
+// numbers read fix it; `note` says what was read, or why not. `phase`:
+// D.largest_index modulo 12 when the arrangement fixed it.
 bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
-                               std::string& note);
+                               std::optional<int> phase, std::string& note);
 
 }  // namespace tactres::locate_detail

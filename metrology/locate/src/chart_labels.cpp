@@ -14,9 +14,11 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "chart_detect_internal.h"
 #include "tactres/labels/label_boxes.h"
@@ -29,6 +31,7 @@ namespace {
 // Absolute indices the largest element found may have: groups -2..9.
 constexpr int kMinIndex = -12, kMaxIndex = 59;
 constexpr size_t kMaxBoxes = 40;
+constexpr double kMinCharPx = 12;
 
 Vec2 box_center(const cv::Rect& b) { return {b.x + 0.5 * b.width, b.y + 0.5 * b.height}; }
 
@@ -91,6 +94,30 @@ std::vector<std::vector<NumberReading>> read_boxes(LabelReader& reader, const cv
   return out;
 }
 
+// Every box read upright only, turned (and un-mirrored) by the chart's
+// orientation as the arrangement found it: one OCR pass a box, and no
+// digit can be taken for another one turned (a 6 for a 9, a 2 for a 5).
+std::vector<std::vector<NumberReading>> read_boxes_upright(LabelReader& reader, const cv::Mat& img,
+                                                           const std::vector<cv::Rect>& boxes, Ink ink,
+                                                           const ChartDetection::Arrangement& A) {
+  const Vec2 down = A.down_px;
+  const Vec2 x_dir = (A.mirrored ? -1.0 : 1.0) * Vec2{down.y, -down.x};
+  std::vector<std::vector<NumberReading>> out;
+  for (const cv::Rect& b : boxes) {
+    const int side = std::max(b.width, b.height);
+    const Vec2 c = box_center(b), o = c - (0.5 * side) * (x_dir + down);
+    // Upright patch pixel (u, v) <- image o + u x_dir + v down.
+    const cv::Matx23d patch_to_image(x_dir.x, down.x, o.x, x_dir.y, down.y, o.y);
+    cv::Mat patch;
+    cv::warpAffine(img, patch, patch_to_image, {side, side}, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                   cv::BORDER_REPLICATE);
+    std::vector<NumberReading> r;
+    if (auto n = reader.read_number(patch, ink)) r.push_back(*n);
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
 // The numbers as they read in orientation `o`.
 std::vector<Label> labels_in(const std::vector<cv::Rect>& boxes, const std::vector<std::vector<NumberReading>>& read,
                              LabelOrientation o) {
@@ -104,13 +131,20 @@ std::vector<Label> labels_in(const std::vector<cv::Rect>& boxes, const std::vect
   return labels;
 }
 
-// For each candidate k, how many labels it explains (each label once). On
-// MIL-STD-150A charts an element's number stands beside it, about one
-// period (two bar widths) tall; a group's number stands above its column,
-// one to three periods of the group's first element tall. A label is read
-// as either, only where its size and place allow it.
-std::map<int, int> support(const ChartDetection& D, const std::vector<ChartElement>& kept, const std::vector<Label>& labels) {
-  std::map<int, int> votes;
+// For each candidate k, how many labels it explains (each label once), as
+// element numbers and as group numbers. On MIL-STD-150A charts an
+// element's number stands beside it, about one period (two bar widths)
+// tall; a group's number stands above its column, one to three periods of
+// the group's first element tall. A label is read as either, only where
+// its size and place allow it.
+struct Support {
+  int element = 0, group = 0;
+  int total() const { return element + group; }
+};
+
+std::map<int, Support> support(const ChartDetection& D, const std::vector<ChartElement>& kept,
+                               const std::vector<Label>& labels, std::optional<int> phase) {
+  std::map<int, Support> votes;
   for (const Label& l : labels) {
     const ChartElement* nearest = nullptr;
     double best = 1e300;
@@ -120,21 +154,85 @@ std::map<int, int> support(const ChartDetection& D, const std::vector<ChartEleme
     }
     if (!nearest || best > 8) continue;
     const double size = l.char_height_px / nearest->period_px;
+    // Numbers under kMinCharPx are not read reliably (a blurred 7 x 11 px
+    // blob reads as a "4" at 99 % confidence): not evidence.
+    if (l.char_height_px < kMinCharPx) continue;
     const bool as_element = l.value >= 1 && l.value <= 6 && size > 0.5 && size < 2.2 && best < 5;
-    const bool as_group = size > 1.0 && size < 3.5;
+    // With the arrangement known, a group number stands only by a column's
+    // top (indices 1 and 6 modulo 12) or by the even group's element 1.
+    const int nearest_n12 = phase ? ((nearest->relative_index + *phase) % 12 + 12) % 12 : 0;
+    const bool as_group = size > 1.0 && size < 3.5 && (!phase || nearest_n12 == 0 || nearest_n12 == 1 || nearest_n12 == 6);
     for (int k = kMinIndex; k <= kMaxIndex; ++k) {
       const int n = nearest->relative_index + k;
-      const bool fits = (as_element && n - 6 * floor_div6(n) == l.value - 1) || (as_group && floor_div6(n) == l.value);
-      votes[k] += fits;
+      const bool element_fits = as_element && n - 6 * floor_div6(n) == l.value - 1;
+      // A number that fits as the element's counts once, as that.
+      const bool group_fits = !element_fits && as_group && floor_div6(n) == l.value;
+      votes[k].element += element_fits;
+      votes[k].group += group_fits;
     }
   }
   return votes;
 }
 
+struct Choice {
+  int k = 0;
+  Support s;
+  LabelOrientation o;
+  int labels_read = 0;
+};
+
+// Without the arrangement: the k that explains the most labels, clearly
+// ahead of every other (element numbers alone tie k with k +- 6, so group
+// numbers must break the tie twice over).
+std::optional<Choice> choose_free(const std::vector<std::pair<Choice, std::map<int, Support>>>& by_o, int& best_n,
+                                  int& second) {
+  Choice best;
+  best_n = 0;
+  second = 0;
+  for (const auto& [c, votes] : by_o)
+    for (const auto& [k, v] : votes) {
+      if (v.total() > best_n) {
+        second = best_n, best_n = v.total();
+        best = c, best.k = k, best.s = v;
+      } else if (v.total() > second) {
+        second = v.total();
+      }
+    }
+  if (best_n < 3 || best_n < second + 2) return std::nullopt;
+  return best;
+}
+
+// With the arrangement recognised, k is known modulo 12 (phase): the group
+// numbers only choose among k = phase + 12 j, and the element numbers
+// must not contradict the phase (their best reading, in any orientation,
+// fits it as well as any other k).
+std::optional<Choice> choose_with_phase(const std::vector<std::pair<Choice, std::map<int, Support>>>& by_o, int phase,
+                                        int& second) {
+  int element_best = 0;
+  for (const auto& [c, votes] : by_o)
+    for (const auto& [k, v] : votes) element_best = std::max(element_best, v.element);
+  Choice best;
+  bool any = false;
+  second = 0;
+  for (const auto& [c, votes] : by_o)
+    for (const auto& [k, v] : votes) {
+      if (((k - phase) % 12 + 12) % 12 != 0) continue;
+      const bool better = !any || v.group > best.s.group || (v.group == best.s.group && v.element > best.s.element);
+      if (better) {
+        if (any && k != best.k) second = std::max(second, best.s.group);
+        best = c, best.k = k, best.s = v, any = true;
+      } else if (k != best.k) {
+        second = std::max(second, v.group);
+      }
+    }
+  if (!any || best.s.group < 1 || best.s.group < second + 1 || best.s.element < element_best) return std::nullopt;
+  return best;
+}
+
 }  // namespace
 
 bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
-                               std::string& note) {
+                               std::optional<int> phase, std::string& note) {
   std::string error;
   LabelReader* reader = thread_reader(error);
   if (!reader) {
@@ -142,35 +240,39 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
     return false;
   }
   const std::vector<cv::Rect> boxes = label_boxes(img, D, kept);
-  const auto read = read_boxes(*reader, img, boxes, D.light_bars ? Ink::light : Ink::dark);
+  const Ink ink = D.light_bars ? Ink::light : Ink::dark;
+  const auto read = phase ? read_boxes_upright(*reader, img, boxes, ink, D.arrangement) : read_boxes(*reader, img, boxes, ink);
   // The orientation and k together: in the wrong orientation the numbers
   // (a 6 read as 9, a 2 as 5) do not fit the elements' order.
-  int best_k = 0, best = 0, second = 0, labels_read = 0;
-  LabelOrientation best_o;
+  std::vector<std::pair<Choice, std::map<int, Support>>> by_o;
   for (const LabelOrientation& o : all_label_orientations()) {
+    if (phase && !(o == LabelOrientation{})) continue;  // read upright already
     const std::vector<Label> labels = labels_in(boxes, read, o);
-    for (const auto& [k, n] : support(D, kept, labels)) {
-      if (n > best) {
-        second = best, best = n, best_k = k, best_o = o;
-        labels_read = static_cast<int>(labels.size());
-      } else if (n > second) {
-        second = n;
-      }
-    }
+    Choice c;
+    c.o = o;
+    c.labels_read = static_cast<int>(labels.size());
+    by_o.push_back({c, support(D, kept, labels, phase)});
   }
-  // A clear winner only: a wrong absolute group is worse than a relative one.
-  if (best < 3 || best < second + 2) {
+  int best_n = 0, second = 0;
+  const std::optional<Choice> best =
+      phase ? choose_with_phase(by_o, *phase, second) : choose_free(by_o, best_n, second);
+  if (!best) {
     int credible = 0;
     for (const auto& r : read) credible += !r.empty();
     note = credible == 0 ? fmt::format("no printed number read ({} candidate boxes)", boxes.size())
+           : phase       ? fmt::format("{} printed number(s) read, but no group number fits the arrangement clearly "
+                                       "better than another",
+                                       credible)
                          : fmt::format("{} printed number(s) read, but they do not fix the group (the best "
                                        "reading explains {}, the next {})",
-                                       credible, best, second);
+                                       credible, best_n, second);
     return false;
   }
-  D.largest_index = best_k;
-  note = fmt::format("{} of {} printed numbers read (text {}) fit the largest element found being group {} element {}",
-                     best, labels_read, to_string(best_o), floor_div6(best_k), best_k - 6 * floor_div6(best_k) + 1);
+  D.largest_index = best->k;
+  const int g = floor_div6(best->k), e = best->k - 6 * g + 1;
+  note = fmt::format("{} element and {} group number(s) of {} read (text {}) fit the largest element found being "
+                     "group {} element {}",
+                     best->s.element, best->s.group, best->labels_read, to_string(best->o), g, e);
   return true;
 }
 

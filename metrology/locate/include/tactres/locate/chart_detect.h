@@ -29,22 +29,22 @@
 //    result says so, and why.
 //
 // What the arrangement can and cannot tell (docs/CHART.md, "Anchor"):
-// - The positions of the elements relative to each other fix the index
-//   modulo 12, that is each element's number (1..6) and its group's parity:
-//   odd groups run 1..6 down the right column, even groups 2..6 down the
-//   left with element 1 at the lower right, and the steps between
-//   consecutive elements (short steps down a column, jumps between columns)
-//   repeat with period 12 and have no other symmetry. They also fix the
-//   handedness (mirrored or not), because a column runs downwards.
+// - The topology of the elements found fixes the index modulo 12, that is
+//   each element's number (1..6) and its group's parity, and the
+//   handedness: odd groups run 1..6 down the right column, even groups
+//   2..6 down the left with element 1 at the lower right, and on charts as
+//   made the H triplet stands left of the V triplet only in the even
+//   group's column (left everywhere on the generated chart). Which found
+//   elements stand one below the other, and on which side each H triplet
+//   stands, is scored against every phase, handedness and style; the
+//   makers' spacings differ, so distances only decide what is a column step.
 // - They cannot fix the group beyond its parity: pairs are nested 4 times
 //   smaller (2 groups), so pair (g, g+1) looks exactly like pair (g+2, g+3)
-//   at another distance, and even a whole chart in view does not say which
-//   group its outermost pair is (charts are made with groups -2..7, 0..7,
-//   4..9, ...). Only the group numbers printed above the columns do: they
-//   are read by matching the chart's seven-segment digits (glyphs.h) for
-//   every group of the right parity, and accepted only when one reading is
-//   clearly best and all readings agree. A chart whose digits are of
-//   another typeface is not read, and the anchor stays none.
+//   at another distance. Only the printed numbers do: the generated chart's
+//   seven-segment group numbers are fitted as templates; any other
+//   typeface is read by OCR (chart_labels.cpp), upright by the orientation
+//   the arrangement found, the group numbers choosing among the indices
+//   the phase allows.
 //
 // Mild perspective is absorbed because every pattern has its own frame.
 
@@ -124,6 +124,8 @@ struct ChartDetection {
     bool recognised = false;
     int phase = 0;              // absolute index of relative index 0, modulo 12
     bool mirrored = false;      // seen from behind (or through a relay)
+    bool generated_style = false;  // every H triplet left of its V triplet, as `tactres generate --chart` draws them
+    Vec2 down_px{0, 1};         // the chart's +y (down its columns) in the image, unit
     int steps_checked = 0;      // element-to-element steps compared with the arrangement
     int steps_matched = 0;
     int labels_read = 0;        // group labels read (0: the group is known modulo 2 only)

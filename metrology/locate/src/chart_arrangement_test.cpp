@@ -1,0 +1,150 @@
+// recognise_arrangement (chart_arrangement.cpp) on element positions of
+// real MIL-STD-150A charts: the phase (index modulo 12), the handedness and
+// the maker's style under rotation and mirroring, a second maker's tighter
+// spacing, and refusals when the elements do not fix it.
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <doctest/doctest.h>
+
+#include "chart_detect_internal.h"
+
+using namespace tactres;
+using namespace tactres::locate_detail;
+
+namespace {
+
+// One pair of groups as measured on real chrome-on-glass charts (three
+// Miniscope frames of groups 4-7, dev_03/04/05 in ../shared/realdata,
+// averaged): for index n modulo 12, the H triplet's centre in units of W
+// (the bar width of the pair's even group's element 1), relative to the odd
+// group's element 1, chart x right and y down; and the V triplet's offset
+// along x (its y is the H triplet's). Negative offsets: V left of H.
+struct PairSlot {
+  double hx, hy, v_dx;
+};
+constexpr PairSlot kRealPair[12] = {
+    {-1.35, 24.28, -7.17}, {-24.25, 0.73, 6.19}, {-24.48, 7.86, 5.49},  {-24.80, 14.20, 4.95},
+    {-25.12, 19.90, 4.44}, {-25.52, 25.21, 4.12}, {0.00, 0.00, -3.55},   {0.06, 4.01, -3.17},
+    {0.10, 7.54, -2.80},   {0.18, 10.71, -2.48}, {0.27, 13.55, -2.21},  {0.26, 16.11, -1.95}};
+// The next pair (two groups finer) sits a quarter the size at this offset (W).
+constexpr Vec2 kInnerPairOffset{-6.93, 9.11};
+
+struct View {
+  double rotation_deg = 0;
+  bool mirrored = false;
+  double w_px = 40;       // W of the outer pair, px
+  double y_stretch = 1;   // another maker's column spacing
+};
+
+Vec2 chart_position(int n, double y_stretch) {
+  const PairSlot& s = kRealPair[n % 12];
+  Vec2 p{s.hx, s.hy * y_stretch};
+  if (n >= 12) p = kInnerPairOffset + 0.25 * p;
+  return p;
+}
+
+// Elements n (0..23, pair 0 then the inner pair) as found in an image.
+struct Built {
+  ChartDetection D;
+  ScaleField field;
+};
+Built build(const std::vector<int>& ns, const View& v) {
+  Built b;
+  const double a = v.rotation_deg * M_PI / 180, c = std::cos(a), s = std::sin(a);
+  const double mx = v.mirrored ? -1 : 1;
+  auto to_image = [&](Vec2 q) {  // chart W -> px
+    const Vec2 m{mx * q.x * v.w_px, q.y * v.w_px};
+    return Vec2{600 + c * m.x - s * m.y, 600 + s * m.x + c * m.y};
+  };
+  auto dir = [&](Vec2 q) { return Vec2{c * mx * q.x - s * q.y, s * mx * q.x + c * q.y}; };
+  const int n0 = *std::min_element(ns.begin(), ns.end());
+  for (int n : ns) {
+    const double w_px = v.w_px * (n >= 12 ? 0.25 : 1) * std::exp2(-(n % 12) / 6.0);
+    const Vec2 h = chart_position(n, v.y_stretch);
+    const double v_dx = kRealPair[n % 12].v_dx * (n >= 12 ? 0.25 : 1);
+    BarPattern ph, pv;
+    ph.center_px = to_image(h);
+    ph.bar_dir = dir({1, 0});
+    pv.center_px = to_image(h + Vec2{v_dx, 0});
+    pv.bar_dir = dir({0, 1});
+    ph.period_px = pv.period_px = 2 * w_px;
+    ChartElement e;
+    e.h = static_cast<int>(b.D.patterns.size());
+    b.D.patterns.push_back(ph);
+    e.v = static_cast<int>(b.D.patterns.size());
+    b.D.patterns.push_back(pv);
+    e.period_px = 2 * w_px;
+    e.relative_index = n - n0;
+    b.D.elements.push_back(e);
+  }
+  b.field.cols = b.field.rows = 1200;
+  b.field.half = 600;
+  b.field.level0 = std::log(2 * v.w_px * std::exp2(-(n0 % 12) / 6.0) * (n0 >= 12 ? 0.25 : 1));
+  return b;
+}
+
+std::vector<int> range(int a, int b) {
+  std::vector<int> out;
+  for (int n = a; n <= b; ++n) out.push_back(n);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("arrangement: a real chart's phase and handedness under rotation and mirroring") {
+  for (double rot : {0.0, 37.0, 90.0, 191.0, 290.0})
+    for (bool mirrored : {false, true}) {
+      CAPTURE(rot);
+      CAPTURE(mirrored);
+      View v;
+      v.rotation_deg = rot;
+      v.mirrored = mirrored;
+      Built b = build(range(1, 16), v);  // the even group's E2 .. the inner pair's E5
+      recognise_arrangement(b.D, b.field);
+      const auto& A = b.D.arrangement;
+      REQUIRE(A.recognised);
+      CHECK(A.phase == 1);
+      CHECK(A.mirrored == mirrored);
+      CHECK_FALSE(A.generated_style);
+      // The chart's +y in the image: the rotated (and mirrored) y axis.
+      const double a = rot * M_PI / 180;
+      CHECK(dot(A.down_px, Vec2{-std::sin(a), std::cos(a)}) > 0.99);
+    }
+}
+
+TEST_CASE("arrangement: the phase follows the largest element found, and another maker's spacing") {
+  for (int n0 : {0, 2, 4}) {  // two or more elements of each column of the outer pair in view
+    CAPTURE(n0);
+    View v;
+    v.rotation_deg = 12;
+    v.y_stretch = 0.84;  // a chart whose columns step 6.7 bar widths, not 8 (dev_14)
+    Built b = build(range(n0, 13), v);
+    recognise_arrangement(b.D, b.field);
+    CAPTURE(b.D.arrangement.note);
+    REQUIRE(b.D.arrangement.recognised);
+    CHECK(b.D.arrangement.phase == n0 % 12);
+  }
+}
+
+TEST_CASE("arrangement: refused when the elements found do not fix it") {
+  SUBCASE("three elements") {
+    Built b = build({7, 8, 9}, View{});
+    recognise_arrangement(b.D, b.field);
+    CHECK_FALSE(b.D.arrangement.recognised);
+  }
+  SUBCASE("one column only: a column of the even or of the odd group looks the same") {
+    Built b = build(range(7, 11), View{});
+    recognise_arrangement(b.D, b.field);
+    CHECK_FALSE(b.D.arrangement.recognised);
+  }
+  SUBCASE("elements scattered at random, not in the arrangement") {
+    Built b = build(range(1, 16), View{});
+    // Swap the positions of every other pair of elements.
+    for (size_t i = 0; i + 1 < b.D.elements.size(); i += 4) std::swap(b.D.elements[i].h, b.D.elements[i + 1].h);
+    recognise_arrangement(b.D, b.field);
+    CHECK_FALSE(b.D.arrangement.recognised);
+  }
+}
