@@ -153,15 +153,19 @@ std::vector<BarPattern> find_triplets(const std::vector<Bar>& bars, bool light) 
   return out;
 }
 
-}  // namespace
+// The square root of the linear luminance (ImageScale::stabilised).
+cv::Mat stabilised(const cv::Mat& linear) {
+  cv::Mat out;
+  cv::sqrt(cv::max(linear, 0.0), out);
+  return out;
+}
 
-PatternsFound find_patterns(const cv::Mat& img, double min_bar_px) {
+// Bar candidates of each polarity in `img` at every window of the ladder.
+void collect_all_bars(const cv::Mat& img, double min_bar_px, std::vector<Bar>& dark, std::vector<Bar>& light) {
   const double sigma = noise_sigma(img);
   const double mean_level = cv::mean(img)[0];
   // Margin: noise must not make bars, nor the faint texture of a clean print.
   const double margin = std::max(3.0 * sigma, 0.01 * std::abs(mean_level));
-
-  std::vector<Bar> dark, light;
   const int max_window = std::max(7, std::min(img.cols, img.rows) / 2);
   for (int k = 7; k <= max_window; k = 2 * k + 1) {
     cv::Mat mean;
@@ -170,6 +174,42 @@ PatternsFound find_patterns(const cv::Mat& img, double min_bar_px) {
     cv::Mat m_dark = diff < -margin, m_light = diff > margin;
     collect_bars(m_dark, min_bar_px * 0.8, dark);
     collect_bars(m_light, min_bar_px * 0.8, light);
+  }
+}
+
+}  // namespace
+
+// Bars of the image smoothed and halved `levels` times (a Gaussian
+// pyramid), in full-resolution pixels. Texture finer than a bar (a fibre
+// bundle's honeycomb, 4.75-6.4 px on dev_01/02; laser speckle, dev_15)
+// cuts the bars of the full-resolution image into fragments; two levels
+// down it is gone (a 5 px period keeps 2 % of its amplitude) while bars 6 px
+// wide or more stay bars. Finer bars are left to the full resolution.
+void collect_pyramid_bars(const cv::Mat& img, int levels, std::vector<Bar>& dark, std::vector<Bar>& light) {
+  cv::Mat small = img;
+  for (int l = 0; l < levels; ++l) cv::pyrDown(small, small);
+  if (std::min(small.cols, small.rows) < 64) return;
+  const double scale = std::exp2(levels);
+  std::vector<Bar> d, li;
+  collect_all_bars(small, 1.5, d, li);
+  for (auto* bars : {&d, &li})
+    for (Bar& b : *bars) {
+      b.c = scale * (b.c + Vec2{0.5, 0.5}) - Vec2{0.5, 0.5};
+      b.length *= scale;
+      b.width *= scale;
+    }
+  dark.insert(dark.end(), d.begin(), d.end());
+  light.insert(light.end(), li.begin(), li.end());
+}
+
+PatternsFound find_patterns(const cv::Mat& linear, double min_bar_px, ImageScale scale) {
+  std::vector<Bar> dark, light;
+  if (scale == ImageScale::linear) {
+    collect_all_bars(linear, min_bar_px, dark, light);
+  } else {
+    const cv::Mat root = stabilised(linear);
+    collect_all_bars(root, min_bar_px, dark, light);
+    collect_pyramid_bars(root, 2, dark, light);
   }
   dark = deduplicate(std::move(dark));
   light = deduplicate(std::move(light));

@@ -10,6 +10,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "tactres/labels/label_reader.h"
 #include "tactres/locate/chart_detect.h"
 #include "tactres/targets/geometry.h"
 
@@ -29,7 +30,21 @@ inline int floor_div6(int n) { return n >= 0 ? n / 6 : -((-n + 5) / 6); }
 struct PatternsFound {
   std::vector<BarPattern> dark, light;
 };
-PatternsFound find_patterns(const cv::Mat& img, double min_bar_px);
+// Which image the bars are looked for in:
+// - linear: the luminance as loaded;
+// - stabilised: its square root, where photon noise (whose variance grows
+//   with the level) is about the same at every level, so that one noise
+//   margin fits a chart lit unevenly, plus the same two levels down a
+//   Gaussian pyramid, where texture finer than a bar (a fibre bundle's
+//   honeycomb, laser speckle) is gone while bars 6 px wide or more remain.
+// In linear light the bright speckle of dev_11's lit side set the margin
+// and its dim bars in the shadow were lost (9 elements found in the full
+// frame, 36 in the square root); in the square root, read noise in the
+// dark grows instead. detect_chart keeps the one that shows more elements.
+// Only where the bars are is decided here; they are measured in linear
+// light.
+enum class ImageScale { linear, stabilised };
+PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, ImageScale scale);
 
 // Elements: perpendicular patterns of the same period side by side, each
 // pattern in one element at most (the best-fitting pairs first).
@@ -80,5 +95,25 @@ void predict_column_ends(ChartDetection& D);
 // D.largest_index modulo 12 when the arrangement fixed it.
 bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
                                std::optional<int> phase, std::string& note);
+
+// Printed numbers shorter than this (px) are not evidence: Tesseract reads
+// a blurred 7 x 11 px blob as a confident "4" (dev_04).
+constexpr double kMinLabelCharPx = 12;
+
+// The image around `center_px` turned upright and un-mirrored by the
+// arrangement's orientation (A.down_px, A.mirrored): a width x height patch
+// whose x runs along the chart's x and y down its columns
+// (chart_group_labels.cpp).
+cv::Mat upright_patch(const cv::Mat& img, const ChartDetection::Arrangement& A, Vec2 center_px, int width,
+                      int height);
+
+// With the arrangement recognised (phase: the largest element's index
+// modulo 12), the group numbers printed above the columns, read upright
+// where the arrangement puts them: the largest element's absolute index
+// when they agree on one, else nullopt; `note` says what was read
+// (chart_group_labels.cpp).
+std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDetection& D,
+                                            const std::vector<ChartElement>& kept, const cv::Mat& img, int phase,
+                                            std::string& note);
 
 }  // namespace tactres::locate_detail

@@ -31,7 +31,6 @@ namespace {
 // Absolute indices the largest element found may have: groups -2..9.
 constexpr int kMinIndex = -12, kMaxIndex = 59;
 constexpr size_t kMaxBoxes = 40;
-constexpr double kMinCharPx = 12;
 
 Vec2 box_center(const cv::Rect& b) { return {b.x + 0.5 * b.width, b.y + 0.5 * b.height}; }
 
@@ -100,19 +99,11 @@ std::vector<std::vector<NumberReading>> read_boxes(LabelReader& reader, const cv
 std::vector<std::vector<NumberReading>> read_boxes_upright(LabelReader& reader, const cv::Mat& img,
                                                            const std::vector<cv::Rect>& boxes, Ink ink,
                                                            const ChartDetection::Arrangement& A) {
-  const Vec2 down = A.down_px;
-  const Vec2 x_dir = (A.mirrored ? -1.0 : 1.0) * Vec2{down.y, -down.x};
   std::vector<std::vector<NumberReading>> out;
   for (const cv::Rect& b : boxes) {
     const int side = std::max(b.width, b.height);
-    const Vec2 c = box_center(b), o = c - (0.5 * side) * (x_dir + down);
-    // Upright patch pixel (u, v) <- image o + u x_dir + v down.
-    const cv::Matx23d patch_to_image(x_dir.x, down.x, o.x, x_dir.y, down.y, o.y);
-    cv::Mat patch;
-    cv::warpAffine(img, patch, patch_to_image, {side, side}, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                   cv::BORDER_REPLICATE);
     std::vector<NumberReading> r;
-    if (auto n = reader.read_number(patch, ink)) r.push_back(*n);
+    if (auto n = reader.read_number(upright_patch(img, A, box_center(b), side, side), ink)) r.push_back(*n);
     out.push_back(std::move(r));
   }
   return out;
@@ -154,9 +145,7 @@ std::map<int, Support> support(const ChartDetection& D, const std::vector<ChartE
     }
     if (!nearest || best > 8) continue;
     const double size = l.char_height_px / nearest->period_px;
-    // Numbers under kMinCharPx are not read reliably (a blurred 7 x 11 px
-    // blob reads as a "4" at 99 % confidence): not evidence.
-    if (l.char_height_px < kMinCharPx) continue;
+    if (l.char_height_px < kMinLabelCharPx) continue;
     const bool as_element = l.value >= 1 && l.value <= 6 && size > 0.5 && size < 2.2 && best < 5;
     // With the arrangement known, a group number stands only by a column's
     // top (indices 1 and 6 modulo 12) or by the even group's element 1.
@@ -239,6 +228,16 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
     note = "the printed numbers cannot be read: " + error;
     return false;
   }
+  if (phase) {
+    // First where the arrangement puts the group numbers.
+    std::string column_note;
+    if (const std::optional<int> k = index_from_column_labels(*reader, D, kept, img, *phase, column_note)) {
+      D.largest_index = *k;
+      note = column_note;
+      return true;
+    }
+    note = column_note + "; ";
+  }
   const std::vector<cv::Rect> boxes = label_boxes(img, D, kept);
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
   const auto read = phase ? read_boxes_upright(*reader, img, boxes, ink, D.arrangement) : read_boxes(*reader, img, boxes, ink);
@@ -259,7 +258,7 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   if (!best) {
     int credible = 0;
     for (const auto& r : read) credible += !r.empty();
-    note = credible == 0 ? fmt::format("no printed number read ({} candidate boxes)", boxes.size())
+    note += credible == 0 ? fmt::format("no printed number read ({} candidate boxes)", boxes.size())
            : phase       ? fmt::format("{} printed number(s) read, but no group number fits the arrangement clearly "
                                        "better than another",
                                        credible)

@@ -95,6 +95,7 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     r.note = "the fit drives m to 0 (no modulation left at this frequency); its error cannot be estimated there";
   } else if (m_sigma > options.max_m_sigma) {
     r.status = ElementStatus::low_signal;
+    r.m_undetermined = true;
     r.note = fmt::format("m_sigma {:.3g} > {:.3g}: the fit cannot pin m down", m_sigma, options.max_m_sigma);
   } else {
     r.status = ElementStatus::ok;
@@ -111,9 +112,10 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
   return seconds;
 }
 
-bool is_unmeasured(ElementStatus s, bool chart_photograph) {
+bool is_unmeasured(const ElementResult& r, bool chart_photograph) {
+  const ElementStatus s = r.status;
   return s == ElementStatus::fit_failed || s == ElementStatus::clipped ||
-         (chart_photograph && s == ElementStatus::out_of_view);
+         (chart_photograph && (s == ElementStatus::out_of_view || r.m_undetermined));
 }
 
 void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,
@@ -123,7 +125,7 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
     std::vector<CnrPoint> cnr;
     for (const ElementResult& r : M.elements) {
       if (r.orientation != o) continue;
-      const bool ok = r.status == ElementStatus::ok, unmeasured = is_unmeasured(r.status, chart_photograph);
+      const bool ok = r.status == ElementStatus::ok, unmeasured = is_unmeasured(r, chart_photograph);
       m.push_back({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok, unmeasured});
       cnr.push_back({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, ok, unmeasured, r.noise_shot_fraction});
     }

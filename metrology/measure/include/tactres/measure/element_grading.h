@@ -60,10 +60,12 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
 // counts by the criterion; an unmeasured one (is_unmeasured) is skipped by
 // the chain and bridged when both neighbours are resolved (criterion.h);
 // any other status counts as unresolved. In a chart photograph
-// (`chart_photograph`), out_of_view is unmeasured: a photograph frames some
-// groups and cuts others. Layout mode, which frames the whole target,
-// counts it as unresolved instead.
-bool is_unmeasured(ElementStatus s, bool chart_photograph);
+// (`chart_photograph`), out_of_view is unmeasured (a photograph frames some
+// groups and cuts others), and so is a low_signal element whose m the fit
+// cannot pin down (m_undetermined: dust, a scratch or glare over a coarse
+// element of a real chart; dev_14's G4E1). Layout mode, which frames the
+// whole target it made, counts both as unresolved instead.
+bool is_unmeasured(const ElementResult& r, bool chart_photograph);
 void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,
                    bool chart_photograph);
 

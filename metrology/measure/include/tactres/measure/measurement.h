@@ -74,6 +74,10 @@ struct ElementResult {
   double cnr = 0, cnr_sigma = 0;
   double noise_shot_fraction = 0;  // share of noise_sd^2 that scales with the light (shot noise)
   ElementStatus status = ElementStatus::fit_failed;
+  // low_signal because the fit cannot pin m down (m_sigma above the
+  // grading's limit): the data say nothing about this element, unlike a fit
+  // that drives m to 0 (no modulation left).
+  bool m_undetermined = false;
   bool resolved = false;
   bool detectable = false;
   std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say
