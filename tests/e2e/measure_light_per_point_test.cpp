@@ -73,7 +73,7 @@ void check_optical(const std::string& design, const Outcome& o) {
     const double rel = *measured.interpolated_lp_per_mm / *true_limit.interpolated_lp_per_mm - 1;
     MESSAGE(design << (h ? " H" : " V") << ": optical limit " << *measured.interpolated_lp_per_mm << " vs true "
                    << *true_limit.interpolated_lp_per_mm << " lp/mm (" << 100 * rel << " %), field "
-                   << (m.reference.field(orient).plane ? "plane" : "uniform") << ", spread "
+                   << std::string(m.reference.field(orient).plane ? "plane" : "uniform") << ", spread "
                    << m.reference.field(orient).spread);
     CHECK(std::abs(rel) <= 0.03);
     CHECK(discrete_limit_agrees(measured, true_limit));
@@ -85,7 +85,8 @@ void check_optical(const std::string& design, const Outcome& o) {
     REQUIRE(te);
     CAPTURE(e.group);
     CAPTURE(e.element);
-    CAPTURE(to_string(e.orientation));
+    const std::string orientation = to_string(e.orientation);
+    CAPTURE(orientation);
     CHECK(std::abs(e.m - te->m) <= 3 * e.m_sigma + 0.03);
     ++ok;
   }

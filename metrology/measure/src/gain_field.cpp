@@ -17,7 +17,7 @@ constexpr double kModelFloor = 0.03;
 // fitted transfer at the element's own frequency says its bars are many
 // blur widths wide, so the fitted step is not confused with m.
 constexpr double kCoarsePxPerBar = 4.0;
-constexpr double kCoarseTransfer = 0.9;
+constexpr double kCoarseTransfer = 0.6;
 // A gradient is real when it stands 3 sigma out of its own error.
 constexpr double kGradientSignificance = 9.0;  // chi^2 of (gx, gy), 3 sigma
 

@@ -8,9 +8,9 @@
 // the spot's centre), the gain changes from place to place, and an element
 // normalised by the reference patch's step would read m times the ratio of
 // the two gains. The gain is therefore measured where it can be: on the
-// patch and on the coarse elements, whose bars are many times wider than
-// the blur (their fitted transfer at their own frequency is >= 0.9), so
-// that the fitted level step separates from m. A plane in target mm per
+// patch and on the coarse elements (>= 4 px per bar, and their own fit with
+// the step free gives a transfer >= 0.6 at their frequency: the bars' edges
+// are resolved), where the fitted level step separates from m. A plane in target mm per
 // orientation, weighted by each estimate's error plus a model floor, is
 // the field; each element is normalised by it at its own centre, with the
 // plane's error at that point in the step's sigma.
