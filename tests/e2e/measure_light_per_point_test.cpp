@@ -5,13 +5,16 @@
 // (metrology/measure gain_field.h).
 #include <cmath>
 #include <memory>
+#include <string>
 #include <variant>
 
 #include <doctest/doctest.h>
+#include <nlohmann/json.hpp>
 
 #include "limit_checks.h"
 #include "scene_fixtures.h"
 #include "tactres/measure/gain_field.h"
+#include "tactres/measure/measurement_io.h"
 
 using namespace tactres;
 using namespace tactres::testing;
@@ -98,11 +101,23 @@ TEST_CASE("light per point: a light whose strength sweeps across the target: the
   CHECK(o.m.reference.horizontal_field.plane);
   CHECK(o.m.reference.vertical_field.spread > kStronglyNonUniformSpread);
   check_optical("T1C1 swept", o);
+  // Reported: the field in the JSON (no NaN anywhere), and a warning.
+  const nlohmann::json j = measurement_to_json(o.m, {});
+  REQUIRE(j["reference"].contains("gain_field"));
+  const nlohmann::json& v = j["reference"]["gain_field"]["vertical_bars"];
+  CHECK(v["model"] == "plane");
+  CHECK(v["gradient_per_mm"][0].is_number());
+  CHECK(v["samples"].get<int>() >= 4);
+  CHECK(j.dump().find("NaN") == std::string::npos);
+  bool warned = false;
+  for (const std::string& w : o.m.warnings) warned = warned || w.find("strongly non-uniform") != std::string::npos;
+  CHECK(warned);
 }
 
 TEST_CASE("light per point: one light everywhere keeps the patch's step (uniform field)") {
   const Outcome o = render_and_measure("T1C1", false);
   CHECK_FALSE(o.m.reference.vertical_field.plane);
   CHECK_FALSE(o.m.reference.horizontal_field.plane);
+  CHECK_FALSE(measurement_to_json(o.m, {})["reference"].contains("gain_field"));
   check_optical("T1C1", o);
 }
