@@ -100,7 +100,9 @@ struct LevelStep {
   double chi2_reduced = 0;  // of the fit that measured it; 0 if none
   // Usable as a scale: it stands out of its own error and is not zero. A
   // relief lit along one axis has none across the other.
-  bool usable() const { return std::abs(contrast) > 5 * contrast_sigma && std::abs(contrast) > 1e-4; }
+  bool usable() const { return distinct_from_zero(5); }
+  // More than k sigma away from zero (and not zero).
+  bool distinct_from_zero(double k) const { return std::abs(contrast) > k * contrast_sigma && std::abs(contrast) > 1e-4; }
 };
 
 // The level step of one orientation over the target (layout mode, relief
