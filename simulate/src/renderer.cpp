@@ -25,8 +25,10 @@ struct TargetRadiance::Impl {
   std::optional<IlluminationField> light;
   const ShadingEffect* shading = nullptr;
   std::vector<std::array<double, 3>> light_dirs;  // unit vectors, weighted
+  Vec2 target_center;                             // the light map's origin
 
-  Impl(const Scene& s, const TargetLayout& l) : scene(s), layout(l) {
+  Impl(const Scene& s, const TargetLayout& l)
+      : scene(s), layout(l), target_center{0.5 * l.width_mm, 0.5 * l.height_mm} {
     const ContactEffect* contact = s.find<ContactEffect>();
     if (s.target == TargetKind::relief && contact)
       relief.emplace(l, contact->sigma_mm, contact->depth_fraction * l.relief_height_mm);
@@ -57,15 +59,23 @@ struct TargetRadiance::Impl {
   }
 
   // Gel coating under the lights: Lambert, or its first order in the slope.
-  double shade(const ReliefField::Sample& s) const {
-    double r = 0;
+  // With a light map (light_path) the one light at point c is
+  // w l = (t_x, t_y, 1), t = E_t / E_n there.
+  double shade(const ReliefField::Sample& s, Vec2 c) const {
     const double nx = -s.slope_x, ny = -s.slope_y;
     const double inv_len = shading->model == ShadingEffect::Model::lambert
                                ? 1.0 / std::sqrt(1 + nx * nx + ny * ny)
                                : 1.0;
-    for (const auto& l : light_dirs) {
-      const double d = (nx * l[0] + ny * l[1] + l[2]) * inv_len;
-      r += shading->model == ShadingEffect::Model::lambert ? std::max(0.0, d) : d;
+    auto one = [&](double lx, double ly, double lz) {
+      const double d = (nx * lx + ny * ly + lz) * inv_len;
+      return shading->model == ShadingEffect::Model::lambert ? std::max(0.0, d) : d;
+    };
+    double r = 0;
+    if (shading->light_map) {
+      const Vec2 t = shading->light_map->in_plane_fraction_at(c - target_center);
+      r = one(t.x, t.y, 1.0);
+    } else {
+      for (const auto& l : light_dirs) r += one(l[0], l[1], l[2]);
     }
     return shading->albedo * r + shading->ambient;
   }
@@ -78,7 +88,7 @@ struct TargetRadiance::Impl {
       value = scene.ground_reflectance + (scene.ink_reflectance - scene.ground_reflectance) * cov;
     } else if (relief) {
       const ReliefField::Sample s = relief->at(c);
-      value = shading ? shade(s) : s.height_mm / relief->peak_height_mm();
+      value = shading ? shade(s, c) : s.height_mm / relief->peak_height_mm();
     } else {
       value = coverage(q);  // rigid relief, no gel: the normalised height
     }

@@ -178,6 +178,7 @@ ResolvedLightPath parse_light_path(JsonFields& f, const Scene& s) {
         "unity_irradiance_w_per_m2 ({} W/m^2): set the exposure within a factor 1000 of the light",
         f.where(), 1e6 * lp.at_target_center.normal_w_per_mm2, lp.illumination_gain, unity_w_per_m2));
   r.shading.lights = {Light{lp.azimuth_deg, lp.elevation_deg, lp.weight}};
+  r.shading.light_map = lp.map;
   r.illumination.shape = IlluminationOptions::mapped;
   r.illumination.map = lp.map;
   r.illumination.distance_mm = std::max(0.5, lp.length_scale_mm);
@@ -279,6 +280,15 @@ void parse_effects(const nlohmann::json& effects, Scene& s) {
 }
 
 }  // namespace
+
+std::vector<Light> ShadingEffect::lights_at(Vec2 offset_mm) const {
+  if (!light_map) return lights;
+  const Vec2 t = light_map->in_plane_fraction_at(offset_mm);
+  const double in_plane = std::hypot(t.x, t.y);
+  // w cos(el) = |t| and w sin(el) = 1: the renderer's w l = (t_x, t_y, 1).
+  return {Light{std::atan2(t.y, t.x) / kDeg, std::atan2(1.0, in_plane) / kDeg,
+                std::hypot(1.0, in_plane)}};
+}
 
 const char* effect_name(const Effect& e) {
   // The variant's types; light_path is not one (it resolves into shading and

@@ -16,11 +16,14 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
+// The light map's origin (scene.h, ShadingEffect::light_map).
+Vec2 layout_center(const TargetLayout& layout) { return {0.5 * layout.width_mm, 0.5 * layout.height_mm}; }
+
 double sinc(double x) { return std::abs(x) < 1e-12 ? 1.0 : std::sin(kPi * x) / (kPi * x); }
 
 // Sine response of full Lambert shading relative to its linearisation, at
 // slope amplitude `slope_amp` along a unit direction (ux, uy).
-double lambert_sine_ratio(const ShadingEffect& sh, double slope_amp, double ux, double uy) {
+double lambert_sine_ratio(const std::vector<Light>& lights, double slope_amp, double ux, double uy) {
   const int n = 512;
   double c1 = 0, c1_lin = 0;
   for (int k = 0; k < n; ++k) {
@@ -29,7 +32,7 @@ double lambert_sine_ratio(const ShadingEffect& sh, double slope_amp, double ux, 
     const double nx = -slope * ux, ny = -slope * uy;
     const double inv_len = 1.0 / std::sqrt(1 + slope * slope);
     double r = 0, r_lin = 0;
-    for (const Light& li : sh.lights) {
+    for (const Light& li : lights) {
       const double az = li.azimuth_deg * kPi / 180, el = li.elevation_deg * kPi / 180;
       const double l[3] = {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
       const double d = nx * l[0] + ny * l[1] + l[2];
@@ -43,15 +46,16 @@ double lambert_sine_ratio(const ShadingEffect& sh, double slope_amp, double ux, 
 }
 
 // The ground level (input units, before the sensor) and the level step c
-// an element's bars show, at a target point with relative irradiance
+// an element's bars show, at target point `at_mm` with relative irradiance
 // `light` and vignetting factor `vignetting` (profile_fit.h's model:
-// P = B0 (1 + c D[S])). Absent where the scene gives no bar signal model.
+// P = B0 (1 + c D[S])); the shading's lights are those at that point.
+// Absent where the scene gives no bar signal model.
 struct LocalLevels {
   double ground = 0, contrast = 0;
   Signature signature = Signature::albedo;
 };
 std::optional<LocalLevels> local_levels(const Scene& scene, const TargetLayout& layout, BarOrientation bars,
-                                        double light, double vignetting) {
+                                        Vec2 at_mm, double light, double vignetting) {
   const double field = light * vignetting;
   if (scene.target == TargetKind::albedo) {
     if (!(scene.ground_reflectance > 0)) return std::nullopt;
@@ -65,7 +69,7 @@ std::optional<LocalLevels> local_levels(const Scene& scene, const TargetLayout& 
   // h = depth_fraction * relief height * S: the ground is the flat
   // response, the step per unit dS/du the slope response along u.
   double flat = 0, along_u = 0;
-  for (const Light& li : sh->lights) {
+  for (const Light& li : sh->lights_at(at_mm - layout_center(layout))) {
     const double az = li.azimuth_deg * kPi / 180, el = li.elevation_deg * kPi / 180;
     flat += li.weight * std::sin(el);
     along_u += li.weight * std::cos(el) * (bars == BarOrientation::vertical_bars ? std::cos(az) : std::sin(az));
@@ -99,7 +103,8 @@ void set_true_cnr(Truth& t, const Scene& scene, const TargetLayout& layout, cons
     TruthElement& te = t.elements[i];
     if (!te.in_view) continue;
     const Vec2 c = layout.elements[i].extent_mm().center_mm();
-    const auto levels = local_levels(scene, layout, te.orientation, light ? light->exact_relative_irradiance(c) : 1.0,
+    const auto levels = local_levels(scene, layout, te.orientation, c,
+                                     light ? light->exact_relative_irradiance(c) : 1.0,
                                      vignetting_at(scene, camera, te.center_px));
     if (!levels) continue;
     const BarOrientation along = te.orientation == BarOrientation::vertical_bars ? BarOrientation::horizontal_bars
@@ -193,7 +198,8 @@ Truth compute_truth(const Scene& scene, const TargetLayout& layout, const Camera
     if (gel && shading && shading->model == ShadingEffect::Model::lambert) {
       const double amp = 0.5 * contact->depth_fraction * layout.relief_height_mm *
                          std::exp(-2 * kPi * kPi * contact->sigma_mm * contact->sigma_mm * e.lp_per_mm * e.lp_per_mm);
-      m *= lambert_sine_ratio(*shading, amp * 2 * kPi * e.lp_per_mm, horizontal ? 0 : 1, horizontal ? 1 : 0);
+      m *= lambert_sine_ratio(shading->lights_at(e.extent_mm().center_mm() - layout_center(layout)),
+                              amp * 2 * kPi * e.lp_per_mm, horizontal ? 0 : 1, horizontal ? 1 : 0);
       te.analytic = false;
     }
     te.m = m;

@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 
+#include "limit_checks.h"
 #include "scene_fixtures.h"
 
 using namespace tactres;
@@ -31,15 +32,8 @@ void check_design(const std::string& design) {
     // (docs/LIGHT_PATH.md): with the LEDs on the sensor's x axis, horizontal
     // bars get almost no in-plane light. An orientation the truth resolves
     // nowhere must not be claimed by the measurement either.
-    if (!true_limit.any_resolved) {
-      CHECK_FALSE(measured.any_resolved);
-      continue;
-    }
-    REQUIRE(true_limit.interpolated_lp_per_mm);
-    REQUIRE(measured.interpolated_lp_per_mm);
-    const double rel = *measured.interpolated_lp_per_mm / *true_limit.interpolated_lp_per_mm - 1;
-    CHECK(std::abs(rel) <= 0.03);  // the noisy-scene tolerance
-    CHECK(discrete_limit_agrees(measured, true_limit));
+    const double rel = check_limit(measured, true_limit, 0.03);  // the noisy-scene tolerance
+    if (!true_limit.any_resolved) continue;
     MESSAGE(design << ": limit " << *measured.interpolated_lp_per_mm << " vs true " << *true_limit.interpolated_lp_per_mm
                    << " lp/mm (" << 100 * rel << " %), pose RMS " << m.pose.rms_px << " px");
   }

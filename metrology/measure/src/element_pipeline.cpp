@@ -4,6 +4,8 @@
 #include <cmath>
 #include <utility>
 
+#include <fmt/format.h>
+
 namespace tactres {
 
 SampledProfile sample_placement(const cv::Mat& lum, const ElementPlacement& placement,
@@ -74,17 +76,28 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
   for (size_t j = 0; j < jobs.size(); ++j) {
     const ElementJob& job = jobs[j];
     ElementResult r = job.element;
-    const LevelStep& step = ref.step(r.orientation);
+    // The step where the element is (gain_field.h): the patch's, unless the
+    // light's direction changes over the target.
+    const LevelStep step = ref.step_at(r.orientation, job.placements.front().strip.center_mm);
     std::pair<double, double>& warm = last_lsf[r.orientation == BarOrientation::vertical_bars];
-    if (!step.usable()) {
+    // A field's step is no scale only where it is consistent with zero
+    // (within 2 sigma): elsewhere its error enters m_sigma (grade_element),
+    // which grades the element on it. The patch's own step keeps its 5 sigma.
+    const bool field = ref.field(r.orientation).plane;
+    const bool no_scale = !step.distinct_from_zero(field ? 2 : 5);
+    if (no_scale) {
       // Nothing across this direction (a relief lit along these bars):
       // there is no scale to measure m against.
       const SampledProfile& sp = profiles[j].front();
       r.status = ElementStatus::low_signal;
       r.outline_px = sp.outline_px;
       r.outline_valid = sp.in_view;
-      r.note = "the reference patch shows no contrast across these bars (a relief lit along them?): m cannot be "
-               "scaled";
+      r.note = field
+                   ? fmt::format("the shading gain across these bars is ~0 here (level step {:.3g} +- {:.3g} from "
+                                 "the gain field, within 2 sigma of 0: the light runs along them): m cannot be scaled",
+                                 step.contrast, step.contrast_sigma)
+                   : "the reference patch shows no contrast across these bars (a relief lit along them?): m cannot "
+                     "be scaled";
       elements.push_back(r);
       strips.push_back(&profiles[j].front());
       continue;

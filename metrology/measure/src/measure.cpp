@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "tactres/measure/element_pipeline.h"
+#include "tactres/measure/gain_field.h"
 #include "tactres/camera/target_view.h"
 #include "tactres/targets/coverage.h"
 
@@ -172,6 +173,23 @@ std::vector<ElementJob> layout_jobs(const TargetLayout& layout, const TargetView
   return jobs;
 }
 
+// What a person must know about a light that varies over the target.
+void note_gain_fields(Measurement& M) {
+  for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+    const GainField& f = M.reference.field(o);
+    if (!f.plane) continue;
+    M.warnings.push_back(fmt::format(
+        "the shading gain across the {} varies over the target (a light whose direction changes from place to "
+        "place): each element is normalised by a plane fitted to the patch and {} coarse elements{}",
+        o == BarOrientation::horizontal_bars ? "horizontal bars" : "vertical bars", f.samples - 1,
+        f.spread > kStronglyNonUniformSpread
+            ? fmt::format("; strongly non-uniform (the step changes by up to {:.0f}% of the patch's), so "
+                          "elements far from the patch carry the plane's error",
+                          100 * f.spread)
+            : ""));
+  }
+}
+
 }  // namespace
 
 Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout, const CameraModel* camera,
@@ -244,6 +262,14 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   const std::vector<ElementJob> jobs = layout_jobs(layout, view, artwork, options);
   const auto profiles = sample_jobs(lum, jobs, clip_level);
   M.stage_seconds.push_back({"profiles", t.seconds()});
+  // A relief's step follows the light's direction over the target
+  // (gain_field.h); printed bars' step is the ink's, the same everywhere.
+  if (ref.signature == Signature::shading) {
+    t.restart();
+    estimate_gain_fields(jobs, profiles, layout, M.reference);
+    M.stage_seconds.push_back({"gain_field", t.seconds()});
+    note_gain_fields(M);
+  }
   const double fit_s = grade_jobs(jobs, profiles, {ref, options, encoding_mismatch}, M.elements);
   M.stage_seconds.push_back({"fits", fit_s});
 

@@ -16,6 +16,20 @@ namespace {
 // JSON numbers must be finite: anything else becomes null.
 nlohmann::json finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
+// The level step's plane over the target (gain_field.h), or "uniform".
+nlohmann::json gain_field_to_json(const GainField& f) {
+  if (!f.plane) return {{"model", "uniform"}};
+  return {{"model", "plane"},
+          {"origin_mm", {finite(f.origin_mm.x), finite(f.origin_mm.y)}},
+          {"contrast", finite(f.contrast)},
+          {"contrast_sigma", finite(std::sqrt(f.covariance[0]))},
+          {"gradient_per_mm", {finite(f.gradient_x_per_mm), finite(f.gradient_y_per_mm)}},
+          {"gradient_sigma_per_mm", {finite(std::sqrt(f.covariance[3])), finite(std::sqrt(f.covariance[5]))}},
+          {"samples", f.samples},
+          {"chi2_reduced", finite(f.chi2_reduced)},
+          {"spread", finite(f.spread)}};
+}
+
 }  // namespace
 
 nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContext& ctx) {
@@ -75,6 +89,11 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
                       {"chi2_y", finite(m.reference.horizontal_bars.chi2_reduced)}};
   else
     j["reference"] = nullptr;
+  // Only when the light varies over the target: a uniform field is the
+  // patch's step, already above.
+  if (m.reference.usable && (m.reference.horizontal_field.plane || m.reference.vertical_field.plane))
+    j["reference"]["gain_field"] = {{"horizontal_bars", gain_field_to_json(m.reference.horizontal_field)},
+                                    {"vertical_bars", gain_field_to_json(m.reference.vertical_field)}};
   j["nyquist_lp_per_mm"] = {{"horizontal_bars", finite(m.nyquist_h_lp_per_mm)},
                             {"vertical_bars", finite(m.nyquist_v_lp_per_mm)}};
   const DetectabilityCriterion rose = ctx.options ? ctx.options->detectability : DetectabilityCriterion{};

@@ -383,22 +383,41 @@ LightPathMap::LightPathMap(const LightPathModel& model, const MembraneMapping& m
   // a curvature ~ (dE/dx) / soft: 2 mm keeps it moderate.
   soft_mm_ = std::min(2.0, 0.25 * half);
   knee_mm_ = half - soft_mm_;
-  values_.assign(static_cast<std::size_t>(n_) * n_, 0.0);
+  for (auto& v : values_) v.assign(static_cast<std::size_t>(n_) * n_, 0.0);
   cv::parallel_for_(cv::Range(0, n_), [&](const cv::Range& rows) {
     for (int j = rows.start; j < rows.end; ++j)
-      for (int i = 0; i < n_; ++i)
-        values_[static_cast<std::size_t>(j) * n_ + i] =
-            model.at({-half + i * step_mm_, -half + j * step_mm_}).normal_w_per_mm2;
+      for (int i = 0; i < n_; ++i) {
+        const IrradianceVector e = model.at({-half + i * step_mm_, -half + j * step_mm_});
+        const std::size_t k = static_cast<std::size_t>(j) * n_ + i;
+        values_[normal][k] = e.normal_w_per_mm2;
+        values_[along_x][k] = e.x_w_per_mm2;
+        values_[along_y][k] = e.y_w_per_mm2;
+      }
   });
 }
 
-double LightPathMap::table(int i, int j) const {
+double LightPathMap::table(Component c, int i, int j) const {
   i = std::clamp(i, 0, n_ - 1);
   j = std::clamp(j, 0, n_ - 1);
-  return values_[static_cast<std::size_t>(j) * n_ + i];
+  return values_[c][static_cast<std::size_t>(j) * n_ + i];
 }
 
-double LightPathMap::at_sensor(Vec2 s) const {
+double LightPathMap::at_sensor(Vec2 s) const { return interpolate(normal, s); }
+
+IrradianceVector LightPathMap::vector_at_sensor(Vec2 s) const {
+  return {interpolate(along_x, s), interpolate(along_y, s), interpolate(normal, s)};
+}
+
+// Each component is interpolated on its own and the ratio taken after: the
+// in-plane part changes sign across T1's spot, where a tabulated ratio
+// would be as smooth but the components are what the model computes.
+Vec2 LightPathMap::in_plane_fraction_at(Vec2 offset_mm) const {
+  const IrradianceVector e = vector_at_sensor(mapping_.sensor_from_target_offset(offset_mm));
+  const Vec2 t = mapping_.target_from_sensor_vector({e.x_w_per_mm2, e.y_w_per_mm2});
+  return {t.x / e.normal_w_per_mm2, t.y / e.normal_w_per_mm2};
+}
+
+double LightPathMap::interpolate(Component c, Vec2 s) const {
   auto soften = [&](double v) {
     const double a = std::abs(v);
     if (!(a > knee_mm_)) return v;
@@ -406,7 +425,7 @@ double LightPathMap::at_sensor(Vec2 s) const {
   };
   const double fx = (soften(s.x) + half_width_mm_) / step_mm_;
   const double fy = (soften(s.y) + half_width_mm_) / step_mm_;
-  if (!(std::isfinite(fx) && std::isfinite(fy))) return table(n_ / 2, n_ / 2);
+  if (!(std::isfinite(fx) && std::isfinite(fy))) return table(c, n_ / 2, n_ / 2);
   const int i = std::clamp(static_cast<int>(std::floor(fx)), 0, n_ - 2);
   const int j = std::clamp(static_cast<int>(std::floor(fy)), 0, n_ - 2);
   auto weights = [](double t, double w[4]) {  // Catmull-Rom
@@ -422,7 +441,7 @@ double LightPathMap::at_sensor(Vec2 s) const {
   double sum = 0.0;
   for (int b = 0; b < 4; ++b) {
     double row = 0.0;
-    for (int a = 0; a < 4; ++a) row += wx[a] * table(i - 1 + a, j - 1 + b);
+    for (int a = 0; a < 4; ++a) row += wx[a] * table(c, i - 1 + a, j - 1 + b);
     sum += wy[b] * row;
   }
   return sum;

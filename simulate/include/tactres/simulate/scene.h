@@ -6,6 +6,7 @@
 
 #include <array>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <variant>
@@ -49,6 +50,14 @@ struct ShadingEffect {
   double albedo = 0.8;   // (0, 1]
   double ambient = 0.0;  // [0, 1]
   std::vector<Light> lights{Light{}};
+  // light_path: the light's direction varies over the target. Where set, each
+  // point has one light of w l = (t_x, t_y, 1), t = E_in-plane / E_normal
+  // there (target frame), and `lights` holds the target centre's, for reports.
+  std::shared_ptr<const InPlaneLightMap> light_map;
+
+  // The lights at `offset_mm` from the target centre: `lights`, or the map's
+  // one light there.
+  std::vector<Light> lights_at(Vec2 offset_from_center_mm) const;
 };
 
 struct VignettingEffect {

@@ -104,7 +104,30 @@ struct LevelStep {
   double chi2_reduced = 0;  // of the fit that measured it; 0 if none
   // Usable as a scale: it stands out of its own error and is not zero. A
   // relief lit along one axis has none across the other.
-  bool usable() const { return std::abs(contrast) > 5 * contrast_sigma && std::abs(contrast) > 1e-4; }
+  bool usable() const { return distinct_from_zero(5); }
+  // More than k sigma away from zero (and not zero).
+  bool distinct_from_zero(double k) const { return std::abs(contrast) > k * contrast_sigma && std::abs(contrast) > 1e-4; }
+};
+
+// The level step of one orientation over the target (layout mode, relief
+// targets; gain_field.h, docs/CONVENTIONS.md "A light that varies over the
+// target"): a relief's step is the shading gain E_t / E_n along the bars'
+// axis, which a light that changes direction over the target changes from
+// place to place. `plane`: contrast(p) = contrast + gradient . (p - origin),
+// estimated from the patch and the coarse elements; otherwise the patch's
+// step holds everywhere (uniform).
+struct GainField {
+  bool plane = false;
+  Vec2 origin_mm;                                  // the patch centre
+  double contrast = 0;                             // at origin_mm
+  double gradient_x_per_mm = 0, gradient_y_per_mm = 0;
+  std::array<double, 6> covariance{};              // upper triangle of (c, gx, gy)
+  int samples = 0;                                 // patch + coarse elements used
+  double chi2_reduced = 0;                         // of the plane
+  // Largest |contrast(element) / contrast(patch) - 1| over the measured
+  // elements' centres (0 when uniform); > 0.5 is noted as strongly non-uniform.
+  double spread = 0;
+  LevelStep at(Vec2 p_mm, const LevelStep& patch) const;
 };
 
 struct ReferenceResult {
@@ -118,6 +141,12 @@ struct ReferenceResult {
     return o == BarOrientation::horizontal_bars ? horizontal_bars : vertical_bars;
   }
   LevelStep& step(BarOrientation o) { return o == BarOrientation::horizontal_bars ? horizontal_bars : vertical_bars; }
+  GainField horizontal_field, vertical_field;  // uniform unless grade_jobs found otherwise
+  const GainField& field(BarOrientation o) const {
+    return o == BarOrientation::horizontal_bars ? horizontal_field : vertical_field;
+  }
+  // The step at a target point: the field's, or the patch's when uniform.
+  LevelStep step_at(BarOrientation o, Vec2 p_mm) const { return field(o).at(p_mm, step(o)); }
   bool layout_mismatch = false;   // refused: the model cannot describe the patch where the layout puts it
   std::vector<Vec2> outline_px;   // corners of the two patch strips in the image
 };

@@ -53,6 +53,17 @@ class IrradianceMap {
   virtual double irradiance_at(Vec2 offset_from_center_mm) const = 0;
 };
 
+// The light's direction as it varies over the target (effects/light_path.h):
+// the in-plane irradiance over the normal one, (E_tx, E_ty) / E_n, in the
+// target frame, queried at an offset from the target centre in target mm.
+// The shading effect takes it instead of its fixed lights (scene.h). Same
+// contract as IrradianceMap: finite, smooth, safe from many threads.
+class InPlaneLightMap {
+ public:
+  virtual ~InPlaneLightMap() = default;
+  virtual Vec2 in_plane_fraction_at(Vec2 offset_from_center_mm) const = 0;
+};
+
 struct IlluminationOptions {
   enum Shape {
     circle,     // disc of diameter aperture_width_mm

@@ -162,30 +162,38 @@ struct MembraneMapping {
   Vec2 target_from_sensor_vector(Vec2 v) const;  // rotates a vector back (M^T)
 };
 
-// The normal component over the membrane on a regular sensor-frame grid,
-// interpolated by Catmull-Rom (C1), continued smoothly beyond the tabulated
-// zone (assumption 7). W/mm^2.
-class LightPathMap final : public IrradianceMap {
+// The irradiance vector over the membrane on a regular sensor-frame grid,
+// each component interpolated by Catmull-Rom (C1), continued smoothly
+// beyond the tabulated zone (assumption 7). W/mm^2. The normal component is
+// the illumination field; the in-plane one over it, rotated into the target
+// frame, is the light's direction at each point (the shading's).
+class LightPathMap final : public IrradianceMap, public InPlaneLightMap {
  public:
   LightPathMap(const LightPathModel& model, const MembraneMapping& mapping);
   double irradiance_at(Vec2 offset_from_center_mm) const override;
-  double at_sensor(Vec2 sensor_mm) const;
+  Vec2 in_plane_fraction_at(Vec2 offset_from_center_mm) const override;
+  double at_sensor(Vec2 sensor_mm) const;            // E_n
+  IrradianceVector vector_at_sensor(Vec2 sensor_mm) const;  // sensor frame
   double table_half_width_mm() const { return half_width_mm_; }
 
  private:
-  double table(int i, int j) const;
+  enum Component { normal, along_x, along_y };
+  double table(Component c, int i, int j) const;
+  double interpolate(Component c, Vec2 sensor_mm) const;
   MembraneMapping mapping_;
   double half_width_mm_ = 0.0, step_mm_ = 1.0, knee_mm_ = 0.0, soft_mm_ = 1.0;
   int n_ = 0;
-  std::vector<double> values_;  // n_ x n_, row j = y
+  std::array<std::vector<double>, 3> values_;  // per component: n_ x n_, row j = y
 };
 
 // The light path resolved into the renderer's terms (docs/FORMATS.md, "Scene"):
-//   input level = E(x, y) * (albedo * w (l_z - hx l_x - hy l_y) + ambient)
-// with one light l (unit vector along E_vec at the target centre, target
-// frame) of weight w = 1 / sin(elevation), so that w l_z = 1, and
-// E(x, y) = E_normal(x, y) / unity_irradiance: a flat membrane reads
-// albedo * E_normal / unity_irradiance.
+//   input level = E(x, y) * (albedo * (1 - hx t_x(x, y) - hy t_y(x, y)) + ambient)
+// with E(x, y) = E_normal(x, y) / unity_irradiance (a flat membrane reads
+// albedo * E_normal / unity_irradiance) and t = E_in-plane / E_normal at
+// each point, target frame (`map` as an InPlaneLightMap): the linearised
+// Lambertian level albedo (E_n - hx E_tx - hy E_ty) / unity. The light at
+// the target centre (azimuth, elevation; weight w = 1 / sin(elevation), so
+// that w l_z = 1) is kept for reports.
 struct LightPathResult {
   LightPathOptions options;
   double unity_irradiance_w_per_mm2 = 0.0;  // the exposure
