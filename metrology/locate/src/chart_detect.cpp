@@ -225,9 +225,10 @@ void anchor_by_arrangement(ChartDetection& D, const std::vector<ChartElement>& k
   }
   std::optional<int> shift;  // in pairs of groups (12 indices)
   bool agree = true;
-  // The seven-segment group labels are the generated chart's (glyphs.h).
-  for (const ChartElement& e : kept) {
-    if (!A.generated_style) break;
+  // The seven-segment group labels are the generated chart's (glyphs.h);
+  // other charts' numbers are read by OCR (anchor_by_printed_numbers).
+  const std::vector<ChartElement> none;
+  for (const ChartElement& e : A.generated_style ? kept : none) {
     const int n = e.relative_index + A.phase, n12 = n % 12;
     if (n12 != 1 && n12 != 6) continue;  // the tops of the columns, under the labels
     const int model_group = n / 6;
