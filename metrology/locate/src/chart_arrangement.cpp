@@ -53,7 +53,7 @@ ElementFrame frame_of(const ChartDetection& D, const ChartElement& e, double bar
 // odd group's elements 1..6 down the right column, 0 the even group's
 // element 1 at the lower right.
 int column_of(int n) {
-  const int m = ((n % 12) + 12) % 12;
+  const int m = mod12(n);
   return m == 0 ? 0 : m <= 5 ? 1 : 2;
 }
 

@@ -227,17 +227,18 @@ void anchor_by_arrangement(ChartDetection& D, const std::vector<ChartElement>& k
   bool agree = true;
   // The seven-segment group labels are the generated chart's (glyphs.h);
   // other charts' numbers are read by OCR (anchor_by_printed_numbers).
-  const std::vector<ChartElement> none;
-  for (const ChartElement& e : A.generated_style ? kept : none) {
-    const int n = e.relative_index + A.phase, n12 = n % 12;
-    if (n12 != 1 && n12 != 6) continue;  // the tops of the columns, under the labels
-    const int model_group = n / 6;
-    const auto g = read_group_label(img, D, e, n12, model_group, field.bar_px(D, e));
-    if (!g) continue;
-    const int s = (*g - model_group) / 2;
-    ++A.labels_read;
-    if (shift && *shift != s) agree = false;
-    shift = s;
+  if (A.generated_style) {
+    for (const ChartElement& e : kept) {
+      const int n = e.relative_index + A.phase, n12 = n % 12;
+      if (n12 != 1 && n12 != 6) continue;  // the tops of the columns, under the labels
+      const int model_group = n / 6;
+      const auto g = read_group_label(img, D, e, n12, model_group, field.bar_px(D, e));
+      if (!g) continue;
+      const int s = (*g - model_group) / 2;
+      ++A.labels_read;
+      if (shift && *shift != s) agree = false;
+      shift = s;
+    }
   }
   const std::string known = fmt::format(
       "the standard arrangement is recognised ({} of {} observations fit it: the side of each element's H triplet and the "

@@ -21,6 +21,10 @@ inline Vec2 perp(Vec2 d) { return {-d.y, d.x}; }
 // floor(n / 6) for any sign of n: the group of series index n = 6 g + e - 1.
 inline int floor_div6(int n) { return n >= 0 ? n / 6 : -((-n + 5) / 6); }
 
+// n modulo 12 in 0..11 for any sign of n: a series index's place in its
+// pair of groups.
+inline int mod12(int n) { return ((n % 12) + 12) % 12; }
+
 // ---------------------------------------------------------------------------
 // Bars and patterns (chart_bars.cpp).
 

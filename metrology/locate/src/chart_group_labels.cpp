@@ -59,7 +59,7 @@ std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDete
   std::map<int, int> votes;  // j -> readings that fit k = phase + 12 j
   int read = 0, unfit = 0;
   for (const ChartElement& e : kept) {
-    const int n12 = ((e.relative_index + phase) % 12 + 12) % 12;
+    const int n12 = mod12(e.relative_index + phase);
     if (n12 != 1 && n12 != 6) continue;
     const double W = 0.5 * e.period_px * std::exp2(n12 / 6.0);
     const Vec2 mid = 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);

@@ -149,7 +149,7 @@ std::map<int, Support> support(const ChartDetection& D, const std::vector<ChartE
     const bool as_element = l.value >= 1 && l.value <= 6 && size > 0.5 && size < 2.2 && best < 5;
     // With the arrangement known, a group number stands only by a column's
     // top (indices 1 and 6 modulo 12) or by the even group's element 1.
-    const int nearest_n12 = phase ? ((nearest->relative_index + *phase) % 12 + 12) % 12 : 0;
+    const int nearest_n12 = phase ? mod12(nearest->relative_index + *phase) : 0;
     const bool as_group = size > 1.0 && size < 3.5 && (!phase || nearest_n12 == 0 || nearest_n12 == 1 || nearest_n12 == 6);
     for (int k = kMinIndex; k <= kMaxIndex; ++k) {
       const int n = nearest->relative_index + k;
@@ -195,17 +195,17 @@ std::optional<Choice> choose_free(const std::vector<std::pair<Choice, std::map<i
 // numbers only choose among k = phase + 12 j, and the element numbers
 // must not contradict the phase (their best reading, in any orientation,
 // fits it as well as any other k).
-std::optional<Choice> choose_with_phase(const std::vector<std::pair<Choice, std::map<int, Support>>>& by_o, int phase,
-                                        int& second) {
+std::optional<Choice> choose_with_phase(const std::vector<std::pair<Choice, std::map<int, Support>>>& by_o,
+                                        int phase) {
   int element_best = 0;
   for (const auto& [c, votes] : by_o)
     for (const auto& [k, v] : votes) element_best = std::max(element_best, v.element);
   Choice best;
   bool any = false;
-  second = 0;
+  int second = 0;  // the best group support of any other k
   for (const auto& [c, votes] : by_o)
     for (const auto& [k, v] : votes) {
-      if (((k - phase) % 12 + 12) % 12 != 0) continue;
+      if (mod12(k - phase) != 0) continue;
       const bool better = !any || v.group > best.s.group || (v.group == best.s.group && v.element > best.s.element);
       if (better) {
         if (any && k != best.k) second = std::max(second, best.s.group);
@@ -254,7 +254,7 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   }
   int best_n = 0, second = 0;
   const std::optional<Choice> best =
-      phase ? choose_with_phase(by_o, *phase, second) : choose_free(by_o, best_n, second);
+      phase ? choose_with_phase(by_o, *phase) : choose_free(by_o, best_n, second);
   if (!best) {
     int credible = 0;
     for (const auto& r : read) credible += !r.empty();
