@@ -22,6 +22,7 @@ Command generate_command();
 Command simulate_command();
 Command measure_command();
 Command report_command();
+Command watch_command();
 Command bench_command();
 
 // Every subcommand, in the order `tactres --help` lists them.

@@ -12,7 +12,7 @@
 namespace tactres::cli {
 
 std::vector<Command> command_table() {
-  return {generate_command(), simulate_command(), measure_command(), report_command(), bench_command()};
+  return {generate_command(), simulate_command(), measure_command(), report_command(), watch_command(), bench_command()};
 }
 
 }  // namespace tactres::cli

@@ -1,6 +1,6 @@
 # Every dependency comes from Debian's archive (scripts/install-deps.sh).
 # Nothing is downloaded at build time.
-find_package(OpenCV REQUIRED COMPONENTS core imgproc)
+find_package(OpenCV REQUIRED COMPONENTS core imgproc videoio highgui)
 find_package(Ceres REQUIRED)
 find_package(OpenImageIO REQUIRED)
 find_package(fmt REQUIRED)

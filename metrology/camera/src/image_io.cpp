@@ -89,6 +89,42 @@ std::string format_name(OIIO::TypeDesc t) {
   return t.c_str();
 }
 
+// The luminance (or one channel) of interleaved float pixels in [0, 1]
+// through out.transfer, with the non-finite policy. `bgr`: colour comes in
+// OpenCV's order.
+void fill_luminance(const float* pixels, bool bgr, const LoadOptions& options, const std::string& what,
+                    LoadedImage& out) {
+  const TransferCurve& curve = out.transfer.curve;
+  out.saturation_level = out.integer_format ? 1.0 : 0.0;
+  out.luminance.create(out.height, out.width, CV_32F);
+  const int nc = out.channels;
+  const bool colour = options.channel < 0 && nc >= 3;
+  const int r = bgr ? 2 : 0, b = bgr ? 0 : 2;
+  for (int y = 0; y < out.height; ++y) {
+    float* row = out.luminance.ptr<float>(y);
+    const float* src = pixels + static_cast<size_t>(y) * out.width * nc;
+    for (int x = 0; x < out.width; ++x) {
+      const float* p = src + static_cast<size_t>(x) * nc;
+      auto lin = [&](float v) { return curve.to_linear(v); };
+      float v;
+      if (colour) v = 0.2126f * lin(p[r]) + 0.7152f * lin(p[1]) + 0.0722f * lin(p[b]);
+      else v = lin(p[options.channel < 0 ? 0 : options.channel]);
+      if (!std::isfinite(v)) {
+        ++out.non_finite_pixels;
+        v = std::numeric_limits<float>::quiet_NaN();
+      }
+      row[x] = v;
+    }
+  }
+  const long long total = static_cast<long long>(out.width) * out.height;
+  if (out.non_finite_pixels == total)
+    throw UnusableInput(fmt::format("image {} has no finite pixel (all NaN or Inf)", what));
+  if (out.non_finite_pixels > 0 && options.non_finite == NonFinitePolicy::reject)
+    throw UnusableInput(fmt::format(
+        "image {} has {} non-finite pixel(s) (NaN/Inf); use --non-finite mask to measure around them", what,
+        out.non_finite_pixels));
+}
+
 }  // namespace
 
 LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& options) {
@@ -122,35 +158,32 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
   out.transfer = decide_transfer(options.transfer, colour_tag_of(path, *in, spec), out.integer_format,
                                  out.bits_per_sample);
   in->close();
-  const TransferCurve& curve = out.transfer.curve;
-  out.saturation_level = out.integer_format ? 1.0 : 0.0;
+  fill_luminance(pixels.data(), false, options, path.string(), out);
+  return out;
+}
 
-  out.luminance.create(spec.height, spec.width, CV_32F);
-  const int nc = spec.nchannels;
-  const bool colour = options.channel < 0 && nc >= 3;
-  for (int y = 0; y < spec.height; ++y) {
-    float* row = out.luminance.ptr<float>(y);
-    const float* src = pixels.data() + static_cast<size_t>(y) * spec.width * nc;
-    for (int x = 0; x < spec.width; ++x) {
-      const float* p = src + static_cast<size_t>(x) * nc;
-      auto lin = [&](float v) { return curve.to_linear(v); };
-      float v;
-      if (colour) v = 0.2126f * lin(p[0]) + 0.7152f * lin(p[1]) + 0.0722f * lin(p[2]);
-      else v = lin(p[options.channel < 0 ? 0 : options.channel]);
-      if (!std::isfinite(v)) {
-        ++out.non_finite_pixels;
-        v = std::numeric_limits<float>::quiet_NaN();
-      }
-      row[x] = v;
-    }
-  }
-  const long long total = static_cast<long long>(spec.width) * spec.height;
-  if (out.non_finite_pixels == total)
-    throw UnusableInput(fmt::format("image {} has no finite pixel (all NaN or Inf)", path.string()));
-  if (out.non_finite_pixels > 0 && options.non_finite == NonFinitePolicy::reject)
-    throw UnusableInput(fmt::format(
-        "image {} has {} non-finite pixel(s) (NaN/Inf); use --non-finite mask to measure around them",
-        path.string(), out.non_finite_pixels));
+LoadedImage image_from_frame(const cv::Mat& frame, const LoadOptions& options, const std::string& what) {
+  options.validate();
+  const int depth = frame.depth();
+  if (frame.empty() || (depth != CV_8U && depth != CV_16U) || frame.channels() > 4)
+    throw UnusableInput(fmt::format("frame {} is not an 8- or 16-bit image of 1 to 4 channels", what));
+  LoadedImage out;
+  out.width = frame.cols;
+  out.height = frame.rows;
+  out.channels = frame.channels();
+  out.pixel_format = depth == CV_8U ? "uint8" : "uint16";
+  out.bits_per_sample = depth == CV_8U ? 8 : 16;
+  out.integer_format = true;
+  if (options.channel >= out.channels)
+    throw std::invalid_argument(fmt::format("--channel {} does not exist: {} has {} channel(s)", options.channel,
+                                            what, out.channels));
+  // A frame from a camera or a decoder carries no colour tag here: the
+  // bit-depth rule of files without one applies (transfer_curve.h).
+  out.transfer = decide_transfer(options.transfer, ColourTag{}, true, out.bits_per_sample);
+  cv::Mat scaled;
+  frame.convertTo(scaled, CV_32F, depth == CV_8U ? 1.0 / 255 : 1.0 / 65535);
+  if (!scaled.isContinuous()) scaled = scaled.clone();
+  fill_luminance(scaled.ptr<float>(), out.channels >= 3, options, what, out);
   return out;
 }
 

@@ -153,8 +153,20 @@ void add_partial_elements(const ChartDetection& D, Measurement& M) {
 
 ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptions& options) {
   options.validate();
+  Stopwatch t;
+  ChartDetection detection = detect_chart(image.luminance, options.detect);
+  const double detect_seconds = t.seconds();
+  ChartMeasurement out = measure_chart_detected(image, std::move(detection), options);
+  out.measurement.stage_seconds.insert(out.measurement.stage_seconds.begin(), {"detect_chart", detect_seconds});
+  return out;
+}
+
+ChartMeasurement measure_chart_detected(const LoadedImage& image, ChartDetection detection,
+                                        const ChartMeasureOptions& options) {
+  options.validate();
   const MeasureOptions& mo = options.measure;
   ChartMeasurement out;
+  out.detection = std::move(detection);
   Measurement& M = out.measurement;
   M.image_width = image.width;
   M.image_height = image.height;
@@ -162,17 +174,13 @@ ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptio
   M.distortion_corrected = false;
   M.transfer = image.transfer;
   const cv::Mat& lum = image.luminance;
-
-  Stopwatch t;
-  out.detection = detect_chart(lum, options.detect);
   const ChartDetection& D = out.detection;
-  M.stage_seconds.push_back({"detect_chart", t.seconds()});
   if (!D.found) {
     M.problem = D.problem;
     return out;
   }
 
-  t.restart();
+  Stopwatch t;
   std::vector<PatternRef> refs;
   for (const ChartElement& e : D.elements) {
     const double f = usaf_lp_per_mm(e.group, e.element);

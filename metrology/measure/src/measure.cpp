@@ -65,6 +65,43 @@ std::vector<DiscObservation> observations_of(const TargetLayout& layout, const F
   return discs;
 }
 
+// The fiducials searched only near where the frame before saw them: the
+// track's box grown by `margin` of its size on every side, as a view into
+// the image (no copy). Coordinates come back in the whole image's pixels.
+FiducialSearchResult find_near_track(const cv::Mat& detection_image, const TargetLayout& layout,
+                                     const LayoutTrack& track, double margin, bool coarse_only) {
+  const double w = track.box_px[2] - track.box_px[0], h = track.box_px[3] - track.box_px[1];
+  const double grow = margin * std::max(w, h);
+  const int x0 = std::clamp(int(std::floor(track.box_px[0] - grow)), 0, detection_image.cols - 1);
+  const int y0 = std::clamp(int(std::floor(track.box_px[1] - grow)), 0, detection_image.rows - 1);
+  const int x1 = std::clamp(int(std::ceil(track.box_px[2] + grow)) + 1, x0 + 1, detection_image.cols);
+  const int y1 = std::clamp(int(std::ceil(track.box_px[3] + grow)) + 1, y0 + 1, detection_image.rows);
+  FiducialSearchOptions o;
+  o.coarse_only = coarse_only && std::min(x1 - x0, y1 - y0) >= 400;
+  FiducialSearchResult r = find_fiducials(detection_image(cv::Rect(x0, y0, x1 - x0, y1 - y0)), layout, o);
+  for (FiducialDetection& d : r.discs) d.centroid_px = {d.centroid_px.x + x0, d.centroid_px.y + y0};
+  // image = T(x0, y0) * crop_from_target: rows 0 and 1 gain x0, y0 times row 2.
+  std::array<double, 9>& H = r.image_from_target;
+  for (int c = 0; c < 3; ++c) {
+    H[c] += x0 * H[6 + c];
+    H[3 + c] += y0 * H[6 + c];
+  }
+  return r;
+}
+
+// The box around the found discs, for the next frame's search.
+void disc_box(const FiducialSearchResult& found, double box_px[4]) {
+  box_px[0] = box_px[1] = 1e300;
+  box_px[2] = box_px[3] = -1e300;
+  for (const FiducialDetection& d : found.discs) {
+    const double r = std::sqrt(std::max(d.area_px, 0.0) / 3.14159265358979);
+    box_px[0] = std::min(box_px[0], d.centroid_px.x - r);
+    box_px[1] = std::min(box_px[1], d.centroid_px.y - r);
+    box_px[2] = std::max(box_px[2], d.centroid_px.x + r);
+    box_px[3] = std::max(box_px[3], d.centroid_px.y + r);
+  }
+}
+
 // Finds the fiducials into M.fiducials. A strongly distorting lens bends
 // the disc pattern away from a plane homography. With a lens model, a
 // failed search of the capture's coarse copy is followed by a search of a
@@ -97,7 +134,7 @@ std::optional<CameraModel> find_target(const cv::Mat& detection_image, const Tar
 // the given model, or a pinhole fitted here when there is none (returned).
 std::optional<CameraModel> fit_target_pose(const LoadedImage& image, const TargetLayout& layout,
                                            const CameraModel* camera, const std::optional<CameraModel>& search_camera,
-                                           const PoseOptions& po, Measurement& M) {
+                                           const PoseOptions& po, const LayoutTrack* track, Measurement& M) {
   if (search_camera) {
     M.camera_source = camera->source();
     M.distortion_corrected = true;
@@ -107,6 +144,14 @@ std::optional<CameraModel> fit_target_pose(const LoadedImage& image, const Targe
     return std::nullopt;
   }
   const std::vector<DiscObservation> discs = observations_of(layout, M.fiducials);
+  if (!camera && track && track->fitted_camera) {
+    // A live sequence keeps the pinhole it fitted on a frame measured from
+    // scratch: the lens does not change between frames, the pose does.
+    M.pose = fit_pose(*track->fitted_camera, discs, po);
+    M.camera_source = "pinhole fitted from the fiducials (no camera model: distortion not corrected)";
+    M.distortion_corrected = false;
+    return track->fitted_camera;
+  }
   if (camera) {
     M.pose = fit_pose(*camera, discs, po);
     M.camera_source = camera->source();
@@ -154,11 +199,15 @@ std::pair<cv::Mat, bool> fit_reference(const LoadedImage& image, const PatchScen
   return {redecoded, encoding_mismatch};
 }
 
-// One job per layout element, all through the target view, coarse to fine.
+// One job per layout element the plan fits, all through the target view,
+// coarse to fine; `index` receives each job's layout element.
 std::vector<ElementJob> layout_jobs(const TargetLayout& layout, const TargetView& view,
-                                    const IndexedArtwork& artwork, const MeasureOptions& options) {
+                                    const IndexedArtwork& artwork, const MeasureOptions& options,
+                                    const FramePlan& plan, std::vector<size_t>& index) {
   std::vector<ElementJob> jobs;
-  for (const ElementLayout& e : layout.elements) {
+  for (size_t i = 0; i < layout.elements.size(); ++i) {
+    if (plan.fit_element && plan.carried && !plan.fit_element(i)) continue;
+    const ElementLayout& e = layout.elements[i];
     ElementJob job;
     job.sampling = options.sampling;
     const Strip strip = element_strip(e, job.sampling);
@@ -169,8 +218,21 @@ std::vector<ElementJob> layout_jobs(const TargetLayout& layout, const TargetView
     job.sampling.bin_px = std::max(job.sampling.bin_px, r.px_per_bar / options.max_bins_per_bar);
     job.placements.push_back({&view, &artwork, strip});
     jobs.push_back(std::move(job));
+    index.push_back(i);
   }
   return jobs;
+}
+
+// The graded jobs in layout order, with the elements the plan did not fit
+// taken from the measurement it carries.
+std::vector<ElementResult> merge_carried(const std::vector<ElementResult>& fitted, const std::vector<size_t>& index,
+                                         const FramePlan& plan, size_t n_elements) {
+  if (!plan.carried || !plan.fit_element) return fitted;
+  if (plan.carried->size() != n_elements)
+    throw std::invalid_argument("FramePlan::carried must hold every element of the layout, in layout order");
+  std::vector<ElementResult> all = *plan.carried;
+  for (size_t k = 0; k < fitted.size(); ++k) all[index[k]] = fitted[k];
+  return all;
 }
 
 // What a person must know about a light that varies over the target.
@@ -190,12 +252,85 @@ void note_gain_fields(Measurement& M) {
   }
 }
 
+
+// The reference patch of a tracked frame whose light has not changed: the
+// track's, with the frame decoded as the track's frame was. Returns the
+// frame re-decoded when the track switched curves (empty otherwise).
+cv::Mat carry_reference(const LoadedImage& image, const LayoutTrack& track, Measurement& M) {
+  M.reference = track.reference;
+  M.transfer = track.transfer;
+  M.transfer_check = track.transfer_check;
+  if (!M.transfer_check.message.empty()) M.warnings.push_back(M.transfer_check.message);
+  if (track.transfer.curve.name() == image.transfer.curve.name()) return {};
+  return redecode(image.luminance, image.transfer.curve, track.transfer.curve);
+}
+
+// Fiducials and pose into M: near the track first, when there is one.
+// Returns the camera the target is seen through (nullopt: `camera`), or
+// sets M.problem.
+struct Located {
+  bool ok = false;
+  bool tracked = false;
+  std::optional<CameraModel> fitted;
+};
+
+Located locate_target(const LoadedImage& image, const TargetLayout& layout, const CameraModel* camera,
+                      const MeasureOptions& options, const FramePlan& plan, Measurement& M) {
+  Located L;
+  Stopwatch t;
+  // (A copy only when pixels are masked: it costs ~1 ms per megapixel.)
+  const cv::Mat& lum_in = image.luminance;
+  const cv::Mat detection_image = cv::checkRange(lum_in) ? lum_in : filled_for_detection(lum_in);
+  PoseOptions po;
+  po.boundary_points = options.pose_boundary_points;
+  const bool distorting = camera && !camera->is_pinhole();
+  std::optional<CameraModel> search_camera;
+  const LayoutTrack* track = nullptr;
+  if (plan.track) {
+    M.fiducials = find_near_track(detection_image, layout, *plan.track, plan.search_margin, distorting);
+    if (M.fiducials.found) {
+      track = plan.track;
+      po.initial_rt = plan.track->rt_camera_from_target_mm;
+    }
+  }
+  if (!M.fiducials.found) search_camera = find_target(detection_image, layout, camera, po, M);
+  M.stage_seconds.push_back({"locate_fiducials", t.seconds()});
+  if (!M.fiducials.found) {
+    M.problem = M.fiducials.problem.empty() ? "no target found" : M.fiducials.problem;
+    return L;
+  }
+  t.restart();
+  L.fitted = fit_target_pose(image, layout, camera, search_camera, po, track, M);
+  M.stage_seconds.push_back({"pose", t.seconds()});
+  if (!M.pose.usable || (!camera && !L.fitted)) {
+    M.problem = "the fiducials do not fit the layout (" + M.pose.problem +
+                "): is this the layout of the captured target, and the right camera model?";
+    return L;
+  }
+  if (M.pose.rms_px > 2.0) {
+    M.problem = fmt::format(
+        "the fiducials fit the layout poorly (reprojection RMS {:.2f} px): wrong layout, wrong camera "
+        "model, or a strongly deformed target",
+        M.pose.rms_px);
+    return L;
+  }
+  L.ok = true;
+  L.tracked = track != nullptr;
+  return L;
+}
+
 }  // namespace
 
 Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout, const CameraModel* camera,
                             const MeasureOptions& options) {
+  return measure_frame(image, layout, camera, options, {}).measurement;
+}
+
+FrameResult measure_frame(const LoadedImage& image, const TargetLayout& layout, const CameraModel* camera,
+                          const MeasureOptions& options, const FramePlan& plan) {
   options.validate();
-  Measurement M;
+  FrameResult out;
+  Measurement& M = out.measurement;
   M.image_width = image.width;
   M.image_height = image.height;
   if (camera) camera->check_image_size(image.width, image.height);
@@ -204,38 +339,12 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
         "the capture is saturated: {:.0f}% of the pixels are at the clip level; reduce exposure or "
         "illumination and capture again",
         100.0 * share);
-    return M;
+    return out;
   }
-
-  Stopwatch t;
-  // (A copy only when pixels are masked: it costs ~1 ms per megapixel.)
-  const cv::Mat& lum_in = image.luminance;
-  const cv::Mat detection_image = cv::checkRange(lum_in) ? lum_in : filled_for_detection(lum_in);
-  PoseOptions po;
-  po.boundary_points = options.pose_boundary_points;
-  const std::optional<CameraModel> search_camera = find_target(detection_image, layout, camera, po, M);
-  M.stage_seconds.push_back({"locate_fiducials", t.seconds()});
-  if (!M.fiducials.found) {
-    M.problem = M.fiducials.problem.empty() ? "no target found" : M.fiducials.problem;
-    return M;
-  }
-
-  t.restart();
-  const std::optional<CameraModel> fitted = fit_target_pose(image, layout, camera, search_camera, po, M);
-  M.stage_seconds.push_back({"pose", t.seconds()});
-  if (!M.pose.usable || (!camera && !fitted)) {
-    M.problem = "the fiducials do not fit the layout (" + M.pose.problem +
-                "): is this the layout of the captured target, and the right camera model?";
-    return M;
-  }
-  if (M.pose.rms_px > 2.0) {
-    M.problem = fmt::format(
-        "the fiducials fit the layout poorly (reprojection RMS {:.2f} px): wrong layout, wrong camera "
-        "model, or a strongly deformed target",
-        M.pose.rms_px);
-    return M;
-  }
-  const CameraModel& cam = camera ? *camera : *fitted;
+  const Located located = locate_target(image, layout, camera, options, plan, M);
+  if (!located.ok) return out;
+  out.tracked = located.tracked;
+  const CameraModel& cam = camera ? *camera : *located.fitted;
   const TargetView view(cam, M.pose.rt_camera_from_target_mm);
   const IndexedArtwork artwork(layout.artwork, 0.0);
   const double clip_level = image.saturation_level;
@@ -247,38 +356,58 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
   // Reference patch: the contrast scale per direction, the signature
   // (printed bars vs relief through a gel) when it is not given, and the
   // check that the pixels were decoded with the curve the patch fits.
-  t.restart();
-  const PatchScene patch_scene{view, layout, artwork, clip_level, camera != nullptr};
-  const auto [redecoded, encoding_mismatch] = fit_reference(image, patch_scene, options, M);
-  const cv::Mat& lum = redecoded.empty() ? lum_in : redecoded;
+  Stopwatch t;
+  const bool carry = plan.track && plan.reuse_reference;
+  bool encoding_mismatch = carry && plan.track->encoding_mismatch;
+  cv::Mat redecoded;
+  if (carry) {
+    redecoded = carry_reference(image, *plan.track, M);
+  } else {
+    const PatchScene patch_scene{view, layout, artwork, clip_level, camera != nullptr};
+    std::tie(redecoded, encoding_mismatch) = fit_reference(image, patch_scene, options, M);
+  }
+  out.reference_refit = !carry;
+  const cv::Mat& lum = redecoded.empty() ? image.luminance : redecoded;
   const ReferenceResult& ref = M.reference;
   M.stage_seconds.push_back({"reference_patch", t.seconds()});
   if (!ref.usable) {
     M.problem = ref.problem;
-    return M;
+    return out;
   }
 
   t.restart();
-  const std::vector<ElementJob> jobs = layout_jobs(layout, view, artwork, options);
+  std::vector<size_t> index;
+  const std::vector<ElementJob> jobs = layout_jobs(layout, view, artwork, options, plan, index);
   const auto profiles = sample_jobs(lum, jobs, clip_level);
   M.stage_seconds.push_back({"profiles", t.seconds()});
   // A relief's step follows the light's direction over the target
   // (gain_field.h); printed bars' step is the ink's, the same everywhere.
-  if (ref.signature == Signature::shading) {
+  // A carried reference carries its field.
+  if (ref.signature == Signature::shading && !carry) {
     t.restart();
     estimate_gain_fields(jobs, profiles, layout, M.reference);
     M.stage_seconds.push_back({"gain_field", t.seconds()});
-    note_gain_fields(M);
   }
-  const double fit_s = grade_jobs(jobs, profiles, {ref, options, encoding_mismatch}, M.elements);
-  M.stage_seconds.push_back({"fits", fit_s});
+  if (ref.signature == Signature::shading) note_gain_fields(M);
+  std::vector<ElementResult> fitted;
+  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {ref, options, encoding_mismatch}, fitted)});
+  M.elements = merge_carried(fitted, index, plan, layout.elements.size());
 
   // Decide.
   t.restart();
   decide_limits(M, options.criterion, options.detectability, false);
   M.stage_seconds.push_back({"decide", t.seconds()});
   M.usable = true;
-  return M;
+
+  LayoutTrack& next = out.track.emplace();
+  next.rt_camera_from_target_mm = M.pose.rt_camera_from_target_mm;
+  next.fitted_camera = located.fitted;
+  disc_box(M.fiducials, next.box_px);
+  next.reference = M.reference;
+  next.transfer = M.transfer;
+  next.transfer_check = M.transfer_check;
+  next.encoding_mismatch = encoding_mismatch;
+  return out;
 }
 
 }  // namespace tactres

@@ -54,6 +54,12 @@ struct LoadedImage {
 // UnusableInput (undecodable or truncated data, exit 2), naming the path.
 LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& options = {});
 
+// A frame already in memory, from a camera or a video decoder: OpenCV's
+// 8- or 16-bit grey or BGR(A), under the policy of a file with no colour
+// tag (8-bit: sRGB, 16-bit: linear, unless options.transfer says). `what`
+// names it in messages. Throws UnusableInput for another pixel type.
+LoadedImage image_from_frame(const cv::Mat& frame, const LoadOptions& options, const std::string& what);
+
 // Writes one channel, or 8-bit BGR colour, atomically. CV_32F goes out as float (TIFF/EXR only),
 // CV_8U / CV_16U as integers; `bits` (<= 16) are the significant bits of a
 // 16-bit image, scaled to the container's full range so readers see [0, 1].

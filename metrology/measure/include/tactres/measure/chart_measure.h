@@ -45,4 +45,11 @@ struct ChartMeasurement {
 
 ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptions& options);
 
+// The measurement of a chart already detected (by detect_chart on this
+// image, or on a frame before it in a live sequence: each pattern's frame is
+// refined on its own profile, so a chart that moved by a fraction of a bar
+// is still measured where it is). measure_chart = detect_chart + this.
+ChartMeasurement measure_chart_detected(const LoadedImage& image, ChartDetection detection,
+                                        const ChartMeasureOptions& options);
+
 }  // namespace tactres

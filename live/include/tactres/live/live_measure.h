@@ -1,0 +1,91 @@
+#pragma once
+// One frame after another of a live sequence (`tactres watch`,
+// docs/LIVE.md): each frame is measured like `tactres measure` measures a
+// capture, with what the frames before established carried over while it
+// still holds.
+//
+// Layout mode:
+//  - tracking: the fiducials are searched near where the frame before had
+//    them, and the pose starts from its pose; when that finds nothing, the
+//    whole frame is searched (measure.h, FramePlan);
+//  - the reference patch is fitted again every `refit_every` frames, when
+//    the frame's mean level has changed by more than `light_change` since
+//    the last fit, and after any frame that could not be measured;
+//  - `near_limit`: only the elements within `near_limit_span` elements of
+//    the limit are fitted; the others keep their last fitted result, and
+//    every frame that refits the patch fits all of them.
+// Chart mode: the frame before's detection is measured again (each
+// pattern's frame is refined on its own profile); the chart is detected
+// again every `refit_every` frames, on a change of light, and whenever the
+// carried detection does not give a usable measurement.
+
+#include <optional>
+#include <string>
+
+#include "tactres/camera/camera_model.h"
+#include "tactres/live/frame_source.h"
+#include "tactres/measure/chart_measure.h"
+#include "tactres/measure/measure.h"
+#include "tactres/targets/layout.h"
+
+namespace tactres {
+
+enum class LiveElements { all, near_limit };
+
+struct LiveOptions {
+  MeasureOptions measure;          // the preset's
+  bool chart = false;              // a standard USAF-1951 chart instead of a layout
+  ChartDetectOptions chart_detect;
+  bool tracking = true;            // false: every frame from scratch
+  int refit_every = 30;            // frames, [1, 100000]
+  double light_change = 0.05;      // relative change of the mean level, (0, 1]
+  LiveElements elements = LiveElements::all;
+  int near_limit_span = 3;         // elements on each side of the limit, [1, 30]
+  void validate() const;           // throws std::invalid_argument
+};
+
+struct LiveFrameResult {
+  long index = 0;
+  std::string name;
+  double time_s = 0;
+  bool measured = false;       // usable measurement (limits below are meaningful)
+  std::string problem;         // why not
+  Measurement measurement;
+  bool relative = false;       // chart mode, group unknown
+  bool tracked = false;        // found near the frame before (layout) / its detection carried (chart)
+  bool refit = false;          // reference patch fitted / chart detected on this frame
+  double analysis_ms = 0;      // wall clock of the measurement, decode excluded
+};
+
+class LiveMeasurer {
+ public:
+  // `layout` is null in chart mode; `camera` may be null (a pinhole is fitted).
+  LiveMeasurer(const LiveOptions& options, const TargetLayout* layout, const CameraModel* camera);
+  LiveFrameResult measure(const Frame& frame);
+
+ private:
+  LiveFrameResult measure_layout(const LoadedImage& image, bool refit);
+  LiveFrameResult measure_chart_frame(const LoadedImage& image, bool refit);
+  FramePlan plan_for(bool refit) const;
+
+  LiveOptions options_;
+  const TargetLayout* layout_;
+  const CameraModel* camera_;
+  std::optional<LayoutTrack> track_;
+  std::optional<ChartDetection> chart_track_;
+  std::vector<ElementResult> last_elements_;  // all elements of the last usable layout frame
+  Limit last_h_, last_v_;
+  int frames_since_refit_ = 0;
+  double level_at_refit_ = 0;
+};
+
+// The mean of the finite pixels on a grid of every 8th pixel: the frame's
+// light level, cheap enough for every frame.
+double frame_level(const cv::Mat& luminance);
+
+// Where layout element `e` stands from `limit` in elements (1/6 octave),
+// for the near-limit choice. With nothing resolved, counted from the
+// coarsest element's frequency.
+double elements_from_limit(double lp_per_mm, const Limit& limit, double coarsest_lp_per_mm);
+
+}  // namespace tactres

@@ -1,0 +1,143 @@
+#include "tactres/live/live_measure.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "tactres/measure/element_grading.h"
+
+namespace tactres {
+
+void LiveOptions::validate() const {
+  measure.validate();
+  if (refit_every < 1 || refit_every > 100000)
+    throw std::invalid_argument(fmt::format("--refit-every {}: must be in [1, 100000] frames", refit_every));
+  if (!(light_change > 0 && light_change <= 1))
+    throw std::invalid_argument(fmt::format("--light-change {}: must be in (0, 1]", light_change));
+  if (near_limit_span < 1 || near_limit_span > 30)
+    throw std::invalid_argument(fmt::format("near-limit span {}: must be in [1, 30] elements", near_limit_span));
+}
+
+double frame_level(const cv::Mat& luminance) {
+  double sum = 0;
+  long n = 0;
+  for (int y = 0; y < luminance.rows; y += 8) {
+    const float* row = luminance.ptr<float>(y);
+    for (int x = 0; x < luminance.cols; x += 8)
+      if (std::isfinite(row[x])) {
+        sum += row[x];
+        ++n;
+      }
+  }
+  return n > 0 ? sum / n : 0;
+}
+
+double elements_from_limit(double lp_per_mm, const Limit& limit, double coarsest_lp_per_mm) {
+  const double at = limit.any_resolved ? limit.lp_per_mm : coarsest_lp_per_mm;
+  return 6 * std::log2(lp_per_mm / at);
+}
+
+LiveMeasurer::LiveMeasurer(const LiveOptions& options, const TargetLayout* layout, const CameraModel* camera)
+    : options_(options), layout_(layout), camera_(camera) {
+  options_.validate();
+  if (!options_.chart && !layout_) throw std::invalid_argument("layout mode needs a layout");
+}
+
+LiveFrameResult LiveMeasurer::measure(const Frame& frame) {
+  LiveFrameResult r;
+  if (frame.image) {
+    const double level = frame_level(frame.image->luminance);
+    const bool light_changed =
+        level_at_refit_ > 0 && std::abs(level / level_at_refit_ - 1) > options_.light_change;
+    const bool refit = !options_.tracking || frames_since_refit_ >= options_.refit_every || light_changed;
+    const auto t0 = std::chrono::steady_clock::now();
+    r = options_.chart ? measure_chart_frame(*frame.image, refit) : measure_layout(*frame.image, refit);
+    r.analysis_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (r.refit) {
+      frames_since_refit_ = 0;
+      level_at_refit_ = level;
+    }
+    ++frames_since_refit_;
+  } else {
+    r.problem = frame.problem;
+  }
+  r.index = frame.index;
+  r.name = frame.name;
+  r.time_s = frame.time_s;
+  if (!r.measured) {  // a frame without the target: the next one starts afresh
+    track_.reset();
+    chart_track_.reset();
+    last_elements_.clear();
+  }
+  return r;
+}
+
+FramePlan LiveMeasurer::plan_for(bool refit) const {
+  FramePlan plan;
+  if (!options_.tracking || !track_) return plan;
+  plan.track = &*track_;
+  plan.reuse_reference = !refit;
+  if (options_.elements == LiveElements::near_limit && !refit &&
+      last_elements_.size() == layout_->elements.size()) {
+    const double coarsest = layout_->elements.front().lp_per_mm;
+    const double span = options_.near_limit_span;
+    plan.carried = &last_elements_;
+    plan.fit_element = [this, coarsest, span](size_t i) {
+      const ElementLayout& e = layout_->elements[i];
+      const Limit& l = e.orientation == BarOrientation::horizontal_bars ? last_h_ : last_v_;
+      return std::abs(elements_from_limit(e.lp_per_mm, l, coarsest)) <= span + 0.01;
+    };
+  }
+  return plan;
+}
+
+LiveFrameResult LiveMeasurer::measure_layout(const LoadedImage& image, bool refit) {
+  LiveFrameResult r;
+  FramePlan plan = plan_for(refit);
+  FrameResult f = measure_frame(image, *layout_, camera_, options_.measure, plan);
+  if (!f.measurement.usable && plan.track) {
+    // What the frames before established may no longer hold (the target
+    // moved far, the light changed): measure this frame from scratch.
+    f = measure_frame(image, *layout_, camera_, options_.measure, {});
+  }
+  r.measured = f.measurement.usable;
+  r.problem = f.measurement.problem;
+  r.tracked = f.tracked;
+  r.refit = f.reference_refit;
+  r.measurement = std::move(f.measurement);
+  if (r.measured) {
+    track_ = std::move(f.track);
+    last_elements_ = r.measurement.elements;  // all elements in layout order, carried ones included
+    last_h_ = r.measurement.horizontal;
+    last_v_ = r.measurement.vertical;
+  }
+  return r;
+}
+
+LiveFrameResult LiveMeasurer::measure_chart_frame(const LoadedImage& image, bool refit) {
+  LiveFrameResult r;
+  ChartMeasureOptions co;
+  co.measure = options_.measure;
+  co.detect = options_.chart_detect;
+  ChartMeasurement cm;
+  const bool carry = options_.tracking && chart_track_ && !refit;
+  if (carry) {
+    cm = measure_chart_detected(image, *chart_track_, co);
+    r.tracked = cm.measurement.usable;
+  }
+  if (!carry || !cm.measurement.usable) {
+    cm = measure_chart(image, co);
+    r.refit = true;
+  }
+  r.measured = cm.measurement.usable;
+  r.problem = cm.measurement.problem;
+  r.relative = cm.detection.anchor == ChartAnchor::none;
+  r.measurement = std::move(cm.measurement);
+  if (r.measured) chart_track_ = std::move(cm.detection);
+  return r;
+}
+
+}  // namespace tactres
