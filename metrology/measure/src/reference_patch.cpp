@@ -29,7 +29,12 @@ double worse_chi2(const ReferenceResult& r) {
 ReferenceResult fit_reference_patch(const cv::Mat& lum, const PatchScene& scene, const MeasureOptions& options) {
   ReferenceResult ref;
   ProfileSamplingOptions ps = options.sampling;
-  ps.bin_px = std::max(ps.bin_px, 0.5);  // the patch's long edges need no finer bins
+  // Half-pixel bins whatever the preset: the patch's long edges need no
+  // finer ones, and at whole-pixel bins (fast) the edges' sub-pixel phase,
+  // which varies along the strip, reads as misfit (reduced chi^2 ~14
+  // against ~2), which sent every fast capture through the encoding check's
+  // extra fits (check_transfer).
+  ps.bin_px = 0.5;
   // px: across x (the scale for vertical bars); py: across y.
   const SampledProfile px = sample_strip(lum, scene.view, scene.artwork,
                                          patch_strip(scene.layout, BarOrientation::vertical_bars), ps, scene.clip_level);

@@ -170,4 +170,13 @@ struct FiducialSearchResult {
 FiducialSearchResult find_fiducials(const cv::Mat& luminance, const TargetLayout& layout,
                                     const FiducialSearchOptions& options = {});
 
+// A live sequence's search (`tactres watch`): each disc of `previous`, the
+// result of the frame before, measured again where it was, with the same
+// full-resolution centroid as find_fiducials and no blob search (a fraction
+// of a millisecond instead of several). A disc may have moved by up to
+// about half its radius. Not found when any disc cannot be measured there,
+// or changed its size or contrast by more than a third (the target moved
+// too far or left, or the light changed): the caller then searches.
+FiducialSearchResult track_fiducials(const cv::Mat& luminance, const FiducialSearchResult& previous);
+
 }  // namespace tactres

@@ -28,7 +28,9 @@ Measurement measure_capture(const LoadedImage& image, const TargetLayout& layout
 struct LayoutTrack {
   RtCameraFromTarget rt_camera_from_target_mm{};
   std::optional<CameraModel> fitted_camera;  // the pinhole fitted when no model is given
-  // The five discs' bounding box in the image, px (x0, y0, x1, y1).
+  FiducialSearchResult fiducials;  // the discs as found
+  double pose_rms_px = 0;          // of the pose fit on them
+  // The discs' bounding box in the image, px (x0, y0, x1, y1).
   double box_px[4] = {0, 0, 0, 0};
   // The reference patch and the pixel decoding it chose (fit_reference).
   ReferenceResult reference;
@@ -38,10 +40,13 @@ struct LayoutTrack {
 };
 
 struct FramePlan {
-  // Null: locate the target in the whole frame. Otherwise the fiducials are
-  // searched near where this track saw them (the box grown by
-  // `search_margin` of its size on every side) and the pose starts from its
-  // pose; when that finds nothing the whole frame is searched.
+  // Null: locate the target in the whole frame. Otherwise each disc is
+  // measured where this track saw it (track_fiducials), then, failing that,
+  // searched near there (the track's box grown by `search_margin` of its
+  // size on every side); the pose starts from the track's. When neither
+  // finds the discs the whole frame is searched. A tracked pose that fits
+  // far worse than the track's (RMS > 3x and > 0.3 px) is refused: the
+  // caller measures the frame from scratch.
   const LayoutTrack* track = nullptr;
   double search_margin = 0.25;
   // With a track: keep its reference patch (the light has not changed)
