@@ -27,6 +27,12 @@ std::string orientation_cells(const LiveFrameResult& r, BarOrientation o, const 
   return s;
 }
 
+// A message on one line: a live CSV is read line by line (tail -f, grep).
+std::string one_line(std::string text) {
+  for (size_t at; (at = text.find('\n')) != std::string::npos;) text.replace(at, 1, "; ");
+  return text;
+}
+
 }  // namespace
 
 std::string live_csv_header() {
@@ -40,7 +46,7 @@ std::string live_csv_row(const LiveFrameResult& r, const FocusReading& h, const 
                      r.measured ? (r.relative ? "relative" : "ok") : "unusable", r.tracked ? 1 : 0,
                      r.refit ? 1 : 0, csv_number(r.analysis_ms, 3),
                      orientation_cells(r, BarOrientation::horizontal_bars, h),
-                     orientation_cells(r, BarOrientation::vertical_bars, v), csv_cell(r.problem));
+                     orientation_cells(r, BarOrientation::vertical_bars, v), csv_cell(one_line(r.problem)));
 }
 
 }  // namespace tactres
