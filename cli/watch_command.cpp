@@ -68,7 +68,7 @@ void add_watch_options(CLI::App& app, Args& a) {
       ->capture_default_str()
       ->check(CLI::IsMember({"all", "near-limit"}));
   app.add_option("--focus-element", a.focus_element,
-                 "Watch m(f) at group G element E (two numbers; default: the element at the current limit)")
+                 "Watch m(f) at group G element E (two numbers; default: per orientation, the element at the limit on the first frame measured, kept for the whole run)")
       ->expected(2);
   app.add_option("--refit-every", a.refit_every,
                  "Fit the reference patch (chart: detect the chart) again every N frames, [1, 100000]")
@@ -159,6 +159,10 @@ struct StatusLines {
   }
 };
 
+void hold_limit_element(const Limit& limit, FocusElement& focus) {
+  if (!focus.group && limit.any_resolved) focus = {limit.group, limit.element};
+}
+
 // The best frame: the highest focus_score, the first of equals.
 struct Best {
   std::optional<double> score;
@@ -174,11 +178,11 @@ int run_watch(const Args& a) {
   LoadOptions load;
   load.channel = a.channel;
   load.transfer = transfer_from_option(a.transfer);
-  FocusElement focus;
+  FocusElement focus_h, focus_v;
   if (a.focus_element.size() == 2) {
     if (a.focus_element[1] < 1 || a.focus_element[1] > 6)
       throw std::invalid_argument("--focus-element G E: E must be in 1..6");
-    focus = {a.focus_element[0], a.focus_element[1]};
+    focus_h = focus_v = {a.focus_element[0], a.focus_element[1]};
   }
   std::unique_ptr<FrameSource> source = open_frame_source(a.source, load, camera_settings(a));
   std::unique_ptr<WatchWindow> window;
@@ -202,8 +206,17 @@ int run_watch(const Args& a) {
     std::optional<Frame> frame = source->next();
     if (!frame) break;
     const LiveFrameResult r = measurer.measure(*frame);
-    const FocusReading fh = focus_reading(r.measurement, BarOrientation::horizontal_bars, focus);
-    const FocusReading fv = focus_reading(r.measurement, BarOrientation::vertical_bars, focus);
+    // Without --focus-element, each orientation watches the element at its
+    // limit on the first frame measured, and keeps it: a history of m at
+    // one element compares like with like while the focus changes.
+    if (r.measured) {
+      hold_limit_element(r.measurement.horizontal, focus_h);
+      hold_limit_element(r.measurement.vertical, focus_v);
+      if (focus_h.group) measurer.always_fit(BarOrientation::horizontal_bars, *focus_h.group, *focus_h.element);
+      if (focus_v.group) measurer.always_fit(BarOrientation::vertical_bars, *focus_v.group, *focus_v.element);
+    }
+    const FocusReading fh = focus_reading(r.measurement, BarOrientation::horizontal_bars, focus_h);
+    const FocusReading fv = focus_reading(r.measurement, BarOrientation::vertical_bars, focus_v);
     if (csv) {
       std::fputs(live_csv_row(r, fh, fv).c_str(), csv.get());
       std::fflush(csv.get());

@@ -75,6 +75,10 @@ LiveFrameResult LiveMeasurer::measure(const Frame& frame) {
   return r;
 }
 
+void LiveMeasurer::always_fit(BarOrientation o, int group, int element) {
+  (o == BarOrientation::horizontal_bars ? always_h_ : always_v_) = std::pair(group, element);
+}
+
 FramePlan LiveMeasurer::plan_for(bool refit) const {
   FramePlan plan;
   if (!options_.tracking || !track_) return plan;
@@ -87,8 +91,10 @@ FramePlan LiveMeasurer::plan_for(bool refit) const {
     plan.carried = &last_elements_;
     plan.fit_element = [this, coarsest, span](size_t i) {
       const ElementLayout& e = layout_->elements[i];
-      const Limit& l = e.orientation == BarOrientation::horizontal_bars ? last_h_ : last_v_;
-      return std::abs(elements_from_limit(e.lp_per_mm, l, coarsest)) <= span + 0.01;
+      const bool h = e.orientation == BarOrientation::horizontal_bars;
+      const std::optional<std::pair<int, int>>& always = h ? always_h_ : always_v_;
+      if (always && always->first == e.group && always->second == e.element) return true;
+      return std::abs(elements_from_limit(e.lp_per_mm, h ? last_h_ : last_v_, coarsest)) <= span + 0.01;
     };
   }
   return plan;

@@ -62,6 +62,9 @@ class LiveMeasurer {
   // `layout` is null in chart mode; `camera` may be null (a pinhole is fitted).
   LiveMeasurer(const LiveOptions& options, const TargetLayout* layout, const CameraModel* camera);
   LiveFrameResult measure(const Frame& frame);
+  // An element fitted on every frame whatever `elements` says (the one a
+  // person watches): group and element, per orientation.
+  void always_fit(BarOrientation o, int group, int element);
 
  private:
   LiveFrameResult measure_layout(const LoadedImage& image, bool refit);
@@ -75,6 +78,7 @@ class LiveMeasurer {
   std::optional<ChartDetection> chart_track_;
   std::vector<ElementResult> last_elements_;  // all elements of the last usable layout frame
   Limit last_h_, last_v_;
+  std::optional<std::pair<int, int>> always_h_, always_v_;
   int frames_since_refit_ = 0;
   double level_at_refit_ = 0;
 };
