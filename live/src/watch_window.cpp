@@ -12,7 +12,12 @@
 namespace tactres {
 
 WatchWindow::WatchWindow(std::string title) : title_(std::move(title)) {
-  if (!std::getenv("DISPLAY") && !std::getenv("WAYLAND_DISPLAY"))
+  auto set = [](const char* name) {
+    const char* v = std::getenv(name);
+    return v && *v;
+  };
+  // (OpenCV's GUI backend aborts the process when it cannot open one.)
+  if (!set("DISPLAY") && !set("WAYLAND_DISPLAY"))
     throw std::runtime_error("--window needs a display (DISPLAY is not set): run without --window, or under X11/Wayland");
   cv::namedWindow(title_, cv::WINDOW_NORMAL | cv::WINDOW_KEEPRATIO);
 }

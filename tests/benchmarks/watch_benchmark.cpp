@@ -6,7 +6,8 @@
 //  - chart mode with tracking: <= 15 ms on a 1.5 Mpx frame.
 // The frames drift (roll and offset change a little from frame to frame),
 // as a target on an assembly jig does; their defocus sweeps through focus.
-// Run: ./build/tests/tactres_watch_benchmark [FRAMES]
+// Run: ./build/tests/tactres_watch_benchmark [FRAMES [ONLY]]
+// ONLY: run the modes whose "mode, setting" text contains it (for a profiler).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -110,6 +111,10 @@ void run(const char* what, const std::vector<LoadedImage>& frames, const TargetL
 
 int main(int argc, char** argv) {
   const int n = argc > 1 ? std::max(4, std::atoi(argv[1])) : 12;
+  const std::string only = argc > 2 ? argv[2] : "";
+  auto wanted = [&](const char* what, const Mode& m) {
+    return only.empty() || (std::string(what) + " " + m.name).find(only) != std::string::npos;
+  };
   cv::setNumThreads(1);
   FLAGS_minloglevel = 3;  // Ceres' covariance warnings: tactres grades those fits itself
   google::InitGoogleLogging(argv[0]);
@@ -127,7 +132,9 @@ int main(int argc, char** argv) {
       {"balanced, from scratch", Preset::balanced, false, LiveElements::all},
       {"balanced, tracking", Preset::balanced, true, LiveElements::all},
   };
-  for (const Mode& m : modes) run("layout", layout_frames, &default_layout(), &wide_angle_camera(), m, 3);
+  for (const Mode& m : modes)
+    if (wanted("layout", m)) run("layout", layout_frames, &default_layout(), &wide_angle_camera(), m, 3);
+  if (!only.empty() && only.find("chart") == std::string::npos) return 0;
 
   // 1536 x 1024 = 1.57 Mpx: the generated MIL-STD-150A chart, groups 0-5.
   const CameraModel cam = CameraModel::pinhole(1400, 1400, 767.5, 511.5, 1536, 1024);
@@ -141,6 +148,7 @@ int main(int argc, char** argv) {
       {"fast, from scratch", Preset::fast, false, LiveElements::all},
       {"fast, tracking", Preset::fast, true, LiveElements::all},
   };
-  for (const Mode& m : chart_modes) run("chart", chart_frames, nullptr, nullptr, m, 1);
+  for (const Mode& m : chart_modes)
+    if (wanted("chart", m)) run("chart", chart_frames, nullptr, nullptr, m, 1);
   return 0;
 }
