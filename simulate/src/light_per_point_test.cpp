@@ -25,7 +25,7 @@ namespace {
 const std::filesystem::path kExamples = std::filesystem::path(TACTRES_SOURCE_DIR) / "examples";
 
 Scene example_scene(const std::string& design) {
-  return read_scene_file(kExamples / "scenes/light_path" / (design + ".json"));
+  return read_scene_file(kExamples / "scenes" / (design + ".json"));
 }
 
 // The model's E_t / E_n at a target point, target frame, straight from the

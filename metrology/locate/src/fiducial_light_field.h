@@ -9,20 +9,25 @@
 // a bright spot's in-plane part points radially toward it, a lit rim's away
 // from the middle (docs/LIGHT_PATH.md, "Off the centre"), so the direction
 // turns by up to ~180 degrees over the target. What stays true is that the
-// directions follow one smooth field. The field checked here is the
-// simplest that covers both and the distant light:
+// directions follow one smooth field. Two fields are checked:
 //
-//     d(q) = lambda (s - q)        (a focus s, toward it or away from it)
-//     d(q) = a                      (its limit as s goes to infinity)
-//
-// i.e. d(q) = (u - lambda q.x, v - lambda q.y), three numbers up to scale.
-// Radial fields are exact under a projective view (lines through s map to
-// lines through its image), so a uniform light under perspective (radial
-// toward a vanishing point) is one as well.
+//   focus:   d(q) = lambda (s - q)   toward a point s or away from it: a
+//            spot, a lit rim, and a distant light (s at infinity). Radial
+//            fields are exact under a projective view (lines through s
+//            map to lines through its image), so a distant light under
+//            perspective (radial toward a vanishing point) is one too.
+//   linear:  d(q) = a + B q, B symmetric: the first-order field about the
+//            target's middle of any light that has no curl, such as an
+//            elongated window (its light points across the window's long
+//            axis, toward the axis; a focus cannot follow that).
 //
 // Texture and random blobs have crescents in unrelated directions: each
 // disc's direction is compared with the field fitted to the OTHER discs
 // (leave one out), so one stray disc cannot pull the field toward itself.
+// The focus has 2 degrees of freedom, the linear field 4: with five discs
+// the focus leaves 3 directions to check, the linear field 1, so its
+// tolerance is tighter, and with four discs it checks nothing (only the
+// focus applies).
 
 #include <vector>
 
@@ -31,19 +36,26 @@
 namespace tactres::locate_detail {
 
 // The largest angle (degrees, 0-180) between a disc's dipole and the
-// direction the field fitted to the other discs predicts at its centre,
-// over the discs (with three discs, or where the others leave the field
-// undetermined, the field fitted to all). 180 when the discs cannot be
-// checked: fewer than 3, a
-// dipole of zero length, a fit that leaves a disc at the field's zero (a
-// strong crescent cannot sit where the in-plane light vanishes), or
-// collinear discs. centres_px and dipoles_px are parallel, image px.
-double light_field_deviation_deg(const std::vector<Vec2>& centres_px, const std::vector<Vec2>& dipoles_px);
+// direction each field fitted to the other discs predicts at its centre,
+// over the discs (where the others leave the field undetermined, the
+// field fitted to all). 180 when the discs cannot check the field: too few
+// for its freedom, a dipole of zero length, a disc at the field's zero (a
+// strong crescent cannot sit where the in-plane light vanishes).
+struct LightFieldDeviation {
+  double focus_deg = 180;
+  double linear_deg = 180;
+};
 
-// Largest light_field_deviation_deg() of relief discs accepted as lit by
-// one light. A distant light under one tilted view stays within ~10
-// degrees; the modelled light paths' spots and rims within ~25
-// (fiducial_light_field_test.cpp); random directions pass rarely.
-inline constexpr double kMaxLightFieldDeviationDeg = 35.0;
+// centres_px and dipoles_px are parallel, image px.
+LightFieldDeviation light_field_deviation(const std::vector<Vec2>& centres_px, const std::vector<Vec2>& dipoles_px);
+
+// Tolerances: a distant light under one tilted view and the modelled light
+// paths stay well within them (fiducial_light_field_test.cpp,
+// fiducial_relief_test.cpp); random directions pass rarely.
+inline constexpr double kMaxFocusDeviationDeg = 45.0;
+inline constexpr double kMaxLinearDeviationDeg = 15.0;
+
+// Whether the crescents follow one light: either field within its tolerance.
+bool follows_one_light(const LightFieldDeviation& d);
 
 }  // namespace tactres::locate_detail

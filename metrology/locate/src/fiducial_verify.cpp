@@ -95,7 +95,7 @@ std::optional<double> HypothesisCheck::relief_shape_score(const std::array<Sym2,
     dipoles_px.push_back(R->dipole);
   }
   if (rings > 0 && rings < n) return std::nullopt;
-  if (rings == 0 && light_field_deviation_deg(centres_px, dipoles_px) > kMaxLightFieldDeviationDeg)
+  if (rings == 0 && !follows_one_light(light_field_deviation(centres_px, dipoles_px)))
     return std::nullopt;
   double sum = 0;
   for (int k = 0; k < 5; ++k) {
