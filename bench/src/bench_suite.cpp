@@ -47,7 +47,7 @@ constexpr Pick kQuick[] = {{0, 0, 0}, {0, 2, 0}, {0, 3, 0}, {0, 4, 0}, {0, 6, 0}
                            {0, 2, 3}, {0, 5, 2}, {1, 3, 2}, {2, 4, 0}, {2, 2, 1}, {2, 1, 3}};
 
 // Relief through the gel: a thin gel (contact smoothing 0.02 mm) and one
-// light, as in examples/scenes/T1C1.json, linearised so the truth is analytic.
+// light, as in tests/data/scenes/T1C1.json, linearised so the truth is analytic.
 ContactEffect bench_contact() {
   ContactEffect c;
   c.sigma_mm = 0.02;

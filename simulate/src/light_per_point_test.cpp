@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <utility>
 
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
@@ -25,7 +26,7 @@ namespace {
 const std::filesystem::path kExamples = std::filesystem::path(TACTRES_SOURCE_DIR) / "examples";
 
 Scene example_scene(const std::string& design) {
-  return read_scene_file(kExamples / "scenes/light_path" / (design + ".json"));
+  return read_scene_file(kExamples / "scenes" / (design + ".json"));
 }
 
 // The model's E_t / E_n at a target point, target frame, straight from the
@@ -117,7 +118,7 @@ TEST_CASE("light per point: the renderer's level is albedo (E_n - hx E_tx - hy E
   CHECK(on_slopes > 20);
 }
 
-TEST_CASE("light per point: the truth's CNR uses the shading gain at each element") {
+TEST_CASE("light per point: the truth's CNR uses the shading gain over each element") {
   const CameraModel camera = CameraModel::load(kExamples / "cameras/wide_angle.cameramodel");
   const TargetLayout layout = make_layout({});
   const Scene per_point = example_scene("T1C1");
@@ -134,13 +135,25 @@ TEST_CASE("light per point: the truth's CNR uses the shading gain at each elemen
   for (size_t i = 0; i < a.elements.size(); ++i) {
     if (!a.elements[i].cnr || !b.elements[i].cnr) continue;
     const bool vertical = a.elements[i].orientation == BarOrientation::vertical_bars;
-    const Vec2 t = model_fraction(model, mapping, layout.elements[i].extent_mm().center_mm() - centre);
+    const Vec2 c = layout.elements[i].extent_mm().center_mm() - centre;
     // Same ground (w l_z = 1 everywhere), same noise: the CNR scales with
-    // the gain along the element's axis, |t_u| here against |t_u| at the
-    // centre. Compared in units of t: the map interpolates t to ~2e-3.
+    // the gain along the element's axis, the RMS of |t_u| E_n over the
+    // triplet's width (detectability.h, rms_step_over_triplet) against
+    // |t_u| at the centre times the RMS of E_n (3-point Gauss-Legendre, as
+    // the truth; u along x across vertical bars). Compared in units of t:
+    // the map interpolates t to ~2e-3.
+    const double half_mm = triplet_half_width_mm(a.elements[i].lp_per_mm);
+    double step_sq = 0, level_sq = 0;
+    for (const auto& [x, w] : {std::pair{-std::sqrt(0.6), 5.0 / 18}, {0.0, 8.0 / 18}, {std::sqrt(0.6), 5.0 / 18}}) {
+      const Vec2 p = c + (vertical ? Vec2{x * half_mm, 0} : Vec2{0, x * half_mm});
+      const Vec2 t = model_fraction(model, mapping, p);
+      const double e_n = model.at(mapping.sensor_from_target_offset(p)).normal_w_per_mm2;
+      step_sq += w * std::pow((vertical ? t.x : t.y) * e_n, 2);
+      level_sq += w * e_n * e_n;
+    }
     const double gain_here = *a.elements[i].cnr / *b.elements[i].cnr * std::abs(vertical ? t0.x : t0.y);
     CAPTURE(i);
-    CHECK(gain_here == doctest::Approx(std::abs(vertical ? t.x : t.y)).epsilon(1e-2).scale(0.5));
+    CHECK(gain_here == doctest::Approx(std::sqrt(step_sq / level_sq)).epsilon(1e-2).scale(0.5));
     CHECK(a.elements[i].m == doctest::Approx(b.elements[i].m));  // m is the transfer, light-free
     ++compared;
   }

@@ -1,7 +1,10 @@
 #include "tactres/simulate/truth.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <optional>
+#include <utility>
 #include <numbers>
 
 #include <nlohmann/json.hpp>
@@ -90,6 +93,32 @@ double vignetting_at(const Scene& scene, const CameraModel& camera, Vec2 px) {
   return std::pow(r.z / std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z), v->exponent);
 }
 
+// The RMS of the true level step across a relief element's triplet
+// (profiles/detectability.h, rms_step_over_triplet): the light per point
+// turns the step over the element, and where its in-plane part across the
+// bars changes sign inside the triplet the outer bars still shade. 3-point
+// Gauss-Legendre over |u| <= the half-width, u along x across vertical bars
+// and along y across horizontal ones: exact for a step linear in u. In the
+// centre's ground units (the noise is taken at the centre's level; the
+// vignetting is the centre's). Printed targets: the centre's step.
+double rms_true_step(const Scene& scene, const TargetLayout& layout, const TruthElement& te, Vec2 centre_mm,
+                     const std::optional<IlluminationField>& light, double vignetting, const LocalLevels& at_centre) {
+  if (at_centre.signature != Signature::shading) return at_centre.contrast;
+  const double half_mm = triplet_half_width_mm(te.lp_per_mm);
+  const double node = std::sqrt(0.6);
+  const std::array<std::pair<double, double>, 3> gauss = {{{-node, 5.0 / 18}, {0.0, 8.0 / 18}, {node, 5.0 / 18}}};
+  double mean_sq = 0;
+  for (const auto& [x, w] : gauss) {
+    const Vec2 at = centre_mm + (te.orientation == BarOrientation::vertical_bars ? Vec2{x * half_mm, 0}
+                                                                                   : Vec2{0, x * half_mm});
+    const auto levels =
+        local_levels(scene, layout, te.orientation, at, light ? light->exact_relative_irradiance(at) : 1.0, vignetting);
+    if (!levels) return at_centre.contrast;
+    mean_sq += w * std::pow(levels->contrast * levels->ground / at_centre.ground, 2);
+  }
+  return std::copysign(std::sqrt(mean_sq), at_centre.contrast);
+}
+
 // The true Rose CNR of every in-view element (truth.h).
 void set_true_cnr(Truth& t, const Scene& scene, const TargetLayout& layout, const CameraModel& camera,
                   const TargetView& view) {
@@ -103,15 +132,16 @@ void set_true_cnr(Truth& t, const Scene& scene, const TargetLayout& layout, cons
     TruthElement& te = t.elements[i];
     if (!te.in_view) continue;
     const Vec2 c = layout.elements[i].extent_mm().center_mm();
+    const double vignetting = vignetting_at(scene, camera, te.center_px);
     const auto levels = local_levels(scene, layout, te.orientation, c,
-                                     light ? light->exact_relative_irradiance(c) : 1.0,
-                                     vignetting_at(scene, camera, te.center_px));
+                                     light ? light->exact_relative_irradiance(c) : 1.0, vignetting);
     if (!levels) continue;
+    const double step = rms_true_step(scene, layout, te, c, light, vignetting, *levels);
     const BarOrientation along = te.orientation == BarOrientation::vertical_bars ? BarOrientation::horizontal_bars
                                                                                  : BarOrientation::vertical_bars;
     const double anisotropy = view.px_per_mm_across(c, along) / view.px_per_mm_across(c, te.orientation);
     const double signal_dn =
-        dn_per_input * bar_signal_ptp(te.m, levels->contrast, levels->ground, levels->signature, te.lp_per_mm);
+        dn_per_input * bar_signal_ptp(te.m, step, levels->ground, levels->signature, te.lp_per_mm);
     const double level = element_mean_level(levels->contrast, levels->ground, levels->signature);
     const double noise_dn = sensor_sigma_dn(*sensor, level);
     // Shot noise: K^2 eta mu_p electrons' worth of variance (EMVA 1288).

@@ -29,11 +29,11 @@ struct Outcome {
 // A light whose azimuth stays at 30 degrees (target frame) while its
 // in-plane part grows from 0.3 to 1.1 of the normal one across the target
 // (x from -10 to +10 mm about the centre): the shading gain of both bar
-// orientations changes 3.7x from one side to the other, linearly. Its
-// direction is the same everywhere, as the fiducial search requires of a
-// relief's discs (every disc's light crescent on one side); the light_path
-// scenes' radial light is refused there (docs/LIGHT_PATH.md, "Status").
-// `curvature_per_mm2` bends the sweep (the field a plane cannot follow).
+// orientations changes 3.7x from one side to the other, linearly, with one
+// direction everywhere (the modelled light paths, whose direction turns as
+// well, are measure_light_path_test.cpp's). Applied to a scene under one
+// light (tests/data/scenes). `curvature_per_mm2` bends the sweep (the field
+// a plane cannot follow).
 class SweptLight final : public InPlaneLightMap {
  public:
   explicit SweptLight(double curvature_per_mm2 = 0) : curvature_(curvature_per_mm2) {}
@@ -50,7 +50,7 @@ class SweptLight final : public InPlaneLightMap {
 
 Outcome render_and_measure(const std::string& design, bool swept, double curvature_per_mm2 = 0) {
   TempDir dir("light-per-point");
-  Scene scene = read_scene_file(source_dir() / "examples/scenes" / (design + ".json"));
+  Scene scene = read_scene_file(source_dir() / "tests/data/scenes" / (design + ".json"));
   const CameraModel camera = CameraModel::load(scene.camera_path);
   if (swept)
     for (Effect& e : scene.effects)

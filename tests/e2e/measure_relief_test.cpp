@@ -1,5 +1,8 @@
-// End to end: the shipped relief-through-gel design scenes (examples/scenes)
-// measured against their truth files.
+// End to end: relief-through-gel design scenes under one light each (the
+// illustrative scenes the examples shipped before the light path was
+// modelled, tests/data/scenes: one gain and one light direction per design)
+// measured against their truth files. The modelled examples/scenes, whose
+// light turns over the target, are measure_light_path_test.cpp's.
 #include <cmath>
 
 #include <doctest/doctest.h>
@@ -14,7 +17,7 @@ namespace {
 
 void check_design(const std::string& design) {
   TempDir dir("relief");
-  const Scene scene = read_scene_file(source_dir() / "examples/scenes" / (design + ".json"));
+  const Scene scene = read_scene_file(source_dir() / "tests/data/scenes" / (design + ".json"));
   const CameraModel camera = CameraModel::load(scene.camera_path);
   REQUIRE(scene.target == TargetKind::relief);
   const RenderResult r = render_scene(scene, default_layout(), camera);

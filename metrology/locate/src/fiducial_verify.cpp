@@ -11,6 +11,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "fiducial_light_field.h"
+
 namespace tactres::locate_detail {
 
 // Least-squares affine map (>= 3 points, not all collinear) as a homography.
@@ -65,39 +67,36 @@ std::optional<std::pair<double, double>> relative_eig(const Sym2& Q, const Sym2&
 
 // Relief discs (shaded mode): refine_relief() measured each disc's image
 // ellipse, which must be the projected disc P the map predicts, in size
-// and shape, to within the tolerances of printed discs. Under one light
-// every disc shows its light crescent on the same side, so the dipoles
-// share a direction (perspective turns them a little) and are a good
-// fraction of the disc's radius; rings (a diffuse light) have none at all.
-// Texture has them in all directions.
+// and shape, to within the tolerances of printed discs. Under a
+// directional light every disc shows a light and a dark crescent, whose
+// dipole is a good fraction of the disc's radius and points along the
+// light's in-plane part at the disc: the same everywhere under one distant
+// light, turning over the target under a spot or a lit rim below the gel.
+// The directions must follow one such field (fiducial_light_field.h);
+// texture has them in unrelated directions. Rings (a diffuse light) have
+// no dipole at all; a mix of rings and crescents is no light's.
 std::optional<double> HypothesisCheck::relief_shape_score(const std::array<Sym2, 5>& P,
                                                           const std::array<int, 5>& cand,
                                                           bool strict) const {
   const double lens = strict ? 0.0 : 3 * o_.max_fit_error_frac;
   const double tol_shape = std::log(strict ? 1.25 : 1.4) + lens;
-  Vec2 sum_dir{};
+  std::vector<Vec2> centres_px, dipoles_px;
   int n = 0, rings = 0;
   for (int k = 0; k < 5; ++k) {
     if (cand[k] < 0) continue;
     ++n;
-    const Vec2 d = refined_.get(cand[k])->dipole;
+    const Refined* R = refined_.get(cand[k]);
     const double r_px = 2 * std::sqrt(std::sqrt(P[k].det()));  // sqrt(a b), semi-axes a, b
-    if (norm(d) < 0.15 * r_px) {
+    if (norm(R->dipole) < 0.15 * r_px) {
       ++rings;
       continue;
     }
-    sum_dir = sum_dir + (1 / norm(d)) * d;
+    centres_px.push_back(R->centroid);
+    dipoles_px.push_back(R->dipole);
   }
   if (rings > 0 && rings < n) return std::nullopt;
-  if (rings == 0) {
-    if (norm(sum_dir) < 1e-12) return std::nullopt;
-    const Vec2 mean_dir = (1 / norm(sum_dir)) * sum_dir;
-    for (int k = 0; k < 5; ++k) {
-      if (cand[k] < 0) continue;
-      const Vec2 d = refined_.get(cand[k])->dipole;
-      if (dot(d, mean_dir) < std::cos(35 * kPi / 180) * norm(d)) return std::nullopt;
-    }
-  }
+  if (rings == 0 && !follows_one_light(light_field_deviation(centres_px, dipoles_px)))
+    return std::nullopt;
   double sum = 0;
   for (int k = 0; k < 5; ++k) {
     if (cand[k] < 0) continue;

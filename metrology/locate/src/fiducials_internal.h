@@ -10,6 +10,7 @@
 //   fiducial_relief.cpp      shaded discs' rims fitted (refine_relief)
 //   fiducial_identify.cpp    which blob is which disc (identify -> Verdict),
 //                            each hypothesis checked by fiducial_verify.cpp
+//                            (relief crescents: fiducial_light_field.cpp)
 //   fiducials.cpp            the orchestration, scale by scale, mode by mode
 
 #include <algorithm>

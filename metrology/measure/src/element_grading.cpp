@@ -20,11 +20,13 @@ constexpr double kAliasingMisfitShare = 1.1;
 
 // What the Rose CNR needs from an ok element's own fit
 // (profiles/detectability.h): the signal from the fitted m, the fixed level
-// step and the local ground level B0; the level whose noise counts; the
+// step (its RMS over the triplet when a gain field turns it) and the local
+// ground level B0; the level whose noise counts; the
 // pixels of one bar. The noise itself comes from the whole capture
 // (element_pipeline.cpp, pool_noise).
 void set_signal(ElementResult& r, const SampledProfile& sp, const ProfileFit& fit, const ProfileFitOptions& fo) {
-  r.signal = bar_signal_ptp(r.m, fo.contrast, fit.b0, fo.signature, r.lp_per_mm);
+  r.signal = bar_signal_ptp(r.m, rms_step_over_triplet(fo.contrast, fo.contrast_slope_per_mm, r.lp_per_mm), fit.b0,
+                            fo.signature, r.lp_per_mm);
   r.mean_level = element_mean_level(fo.contrast, fit.b0, fo.signature);
   const double anisotropy = sp.px_per_mm_across > 0 ? sp.px_per_mm_along / sp.px_per_mm_across : 1.0;
   r.bar_pixels = pixels_per_bar(r.px_per_bar, anisotropy);
@@ -62,16 +64,20 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     return seconds;
   }
   const double m = fit.transfer(r.lp_per_mm);
-  // The level step's error scales the whole signature: m moves with it to
-  // first order (dm/dc ~ -m/c).
-  double m_sigma = std::hypot(fit.transfer_sigma(r.lp_per_mm), m * contrast_sigma / std::abs(fo.contrast));
+  double fit_sigma = fit.transfer_sigma(r.lp_per_mm);
   // The shading (relief) model is biased: on independent relief captures
   // (tests/reference, any light direction, noise-free) it reads
   // ln m about 1.2 % of ln m too low, so the interpolated limit ~0.6 % low,
   // several times its fit-only sigma. That known model uncertainty (a GUM
   // type-B term) enters m_sigma, so the stated intervals cover the truth.
   if (fo.signature == Signature::shading && m > 0)
-    m_sigma = std::hypot(m_sigma, kShadingModelLogSigma * m * std::abs(std::log(m)));
+    fit_sigma = std::hypot(fit_sigma, kShadingModelLogSigma * m * std::abs(std::log(m)));
+  // The level step's error scales the whole signature: m moves with it to
+  // first order (dm/dc ~ -m/c), c the step the bars shade with (its RMS over
+  // the triplet when a gain field turns it).
+  const double step_sigma =
+      m * contrast_sigma / std::abs(rms_step_over_triplet(fo.contrast, fo.contrast_slope_per_mm, r.lp_per_mm));
+  const double m_sigma = std::hypot(fit_sigma, step_sigma);
   r.beta = fit.beta;
   r.chi2_reduced = fit.chi2_reduced;
   if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
@@ -93,10 +99,15 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     // not give. Not resolved, and said so.
     r.status = ElementStatus::low_signal;
     r.note = "the fit drives m to 0 (no modulation left at this frequency); its error cannot be estimated there";
-  } else if (m_sigma > options.max_m_sigma) {
+  } else if (fit_sigma > options.max_m_sigma) {
+    // Only the fit's own error grades an element: a step known poorly at
+    // the element's place (a gain field near a line where the light runs
+    // along the bars; the patch's own step stands 5 sigma out, so it alone
+    // never exceeds the limit) leaves m as the fit found it, with the
+    // step's error in m_sigma, where the criterion (m - 2 sigma > 0) weighs it.
     r.status = ElementStatus::low_signal;
     r.m_undetermined = true;
-    r.note = fmt::format("m_sigma {:.3g} > {:.3g}: the fit cannot pin m down", m_sigma, options.max_m_sigma);
+    r.note = fmt::format("m_sigma {:.3g} > {:.3g}: the fit cannot pin m down", fit_sigma, options.max_m_sigma);
   } else {
     r.status = ElementStatus::ok;
     r.m = m;
@@ -104,7 +115,12 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     set_signal(r, sp, fit, fo);
     // The covariance is already scaled by the reduced chi^2 (profile_fit.h),
     // so m_sigma carries the misfit; a person still needs to know.
-    if (fit.chi2_reduced > options.poor_fit_chi2)
+    r.m_scale_undetermined = step_sigma > options.max_m_sigma;
+    if (r.m_scale_undetermined)
+      r.note = fmt::format("m_sigma {:.3g} is mostly the level step's error here ({:.0f} % of the step, from the gain "
+                           "field): the fit itself pins m to {:.3g}",
+                           m_sigma, 100 * contrast_sigma / std::abs(fo.contrast), fit_sigma);
+    else if (fit.chi2_reduced > options.poor_fit_chi2)
       r.note = fmt::format("poor fit (reduced chi^2 {:.3g}): the profile model does not describe these bars well; "
                            "m_sigma is widened by sqrt(chi^2){}",
                            fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
@@ -115,6 +131,7 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
 bool is_unmeasured(const ElementResult& r, bool chart_photograph) {
   const ElementStatus s = r.status;
   return s == ElementStatus::fit_failed || s == ElementStatus::clipped ||
+         (s == ElementStatus::low_signal && r.m_scale_undetermined) ||
          (chart_photograph && (s == ElementStatus::out_of_view || r.m_undetermined));
 }
 
@@ -126,7 +143,12 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
     for (const ElementResult& r : M.elements) {
       if (r.orientation != o) continue;
       const bool ok = r.status == ElementStatus::ok, unmeasured = is_unmeasured(r, chart_photograph);
-      m.push_back({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok, unmeasured});
+      // An element whose step alone leaves m unresolved says nothing about
+      // the optics (the light hardly shades it there): bridged for the
+      // optical limit. Its CNR, the bars' own signal, still counts.
+      const MPoint point{r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok, unmeasured};
+      const bool unscaled = ok && r.m_scale_undetermined && !is_resolved(point, criterion);
+      m.push_back({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok && !unscaled, unmeasured || unscaled});
       cnr.push_back({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, ok, unmeasured, r.noise_shot_fraction});
     }
     const LimitBreakdown parts = decide_breakdown(std::move(m), std::move(cnr), criterion, detectability);

@@ -84,12 +84,21 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
     // (within 2 sigma): elsewhere its error enters m_sigma (grade_element),
     // which grades the element on it. The patch's own step keeps its 5 sigma.
     const bool field = ref.field(r.orientation).plane;
-    const bool no_scale = !step.distinct_from_zero(field ? 2 : 5);
+    // A field's step also changes across the element's bars (u runs along x
+    // across vertical bars, along y across horizontal ones): the bars shade
+    // with its RMS over the triplet (detectability.h), which stays clear of
+    // zero where the light's in-plane part changes sign inside the element.
+    const GainField& gain = ref.field(r.orientation);
+    const double slope_per_mm =
+        !field ? 0.0 : r.orientation == BarOrientation::vertical_bars ? gain.gradient_x_per_mm : gain.gradient_y_per_mm;
+    const LevelStep shading{rms_step_over_triplet(step.contrast, slope_per_mm, r.lp_per_mm), step.contrast_sigma};
+    const bool no_scale = !shading.distinct_from_zero(field ? 2 : 5);
     if (no_scale) {
       // Nothing across this direction (a relief lit along these bars):
       // there is no scale to measure m against.
       const SampledProfile& sp = profiles[j].front();
       r.status = ElementStatus::low_signal;
+      r.m_scale_undetermined = field;
       r.outline_px = sp.outline_px;
       r.outline_valid = sp.in_view;
       r.note = field
@@ -106,6 +115,7 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
     fo.signature = ref.signature;
     fo.fit_contrast = false;
     fo.contrast = step.contrast;
+    fo.contrast_slope_per_mm = slope_per_mm;
     fo.fit_shape = context.options.fit_psf_shape;
     const std::pair<double, double> warm_before = warm;
     const SampledProfile* graded_on = &profiles[j].front();

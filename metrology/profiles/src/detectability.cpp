@@ -25,6 +25,13 @@ double bar_signal_ptp(double m, double contrast, double ground_level, Signature 
   return std::isfinite(s) ? s : 0.0;
 }
 
+double triplet_half_width_mm(double lp_per_mm) { return 2.5 * 0.5 / lp_per_mm; }
+
+double rms_step_over_triplet(double contrast, double contrast_slope_per_mm, double lp_per_mm) {
+  const double ramp = contrast_slope_per_mm * triplet_half_width_mm(lp_per_mm);
+  return std::copysign(std::sqrt(contrast * contrast + ramp * ramp / 3), contrast);
+}
+
 double element_mean_level(double contrast, double ground_level, Signature signature) {
   return signature == Signature::albedo ? ground_level * (1 + 0.5 * contrast) : ground_level;
 }

@@ -114,7 +114,8 @@ class GridModel {
 // One residual per non-empty bin in the fit range, weighted by 1/sigma.
 class ProfileCost final : public ceres::CostFunction {
  public:
-  ProfileCost(const ProfileData& d, const GridModel& model) : d_(d), model_(model) {
+  ProfileCost(const ProfileData& d, const GridModel& model, double contrast_slope_per_mm)
+      : d_(d), model_(model), contrast_slope_per_mm_(contrast_slope_per_mm) {
     for (int i = d.fit_begin; i < d.fit_end; ++i)
       if (d.count[i] > 0 && std::isfinite(d.value[i])) bins_.push_back(i);
     set_num_residuals(static_cast<int>(bins_.size()));
@@ -139,18 +140,23 @@ class ProfileCost final : public ceres::CostFunction {
     double x0[kParamCount];
     std::copy(x, x + kParamCount, x0);
     x0[kContrast] = 0;
-    const double* p[] = {x};
-    const double* p0[] = {x0};
-    Evaluate(p, with.data(), nullptr);
-    Evaluate(p0, without.data(), nullptr);
+    evaluate(x, with.data(), nullptr, contrast_slope_per_mm_);
+    evaluate(x0, without.data(), nullptr, 0.0);
     double ss = 0;
     for (size_t k = 0; k < with.size(); ++k) ss += std::pow((with[k] - without[k]) * d_.sigma[bins_[k]], 2);
     return with.empty() ? 0.0 : std::sqrt(ss / with.size());
   }
 
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
-    const double* x = params[0];
-    const bool want_j = jacobians && jacobians[0];
+    evaluate(params[0], residuals, jacobians ? jacobians[0] : nullptr, contrast_slope_per_mm_);
+    return true;
+  }
+
+ private:
+  // The weighted residuals (and their Jacobian, row-major, if `jacobian`),
+  // with the contrast x[kContrast] + slope u at u.
+  void evaluate(const double* x, double* residuals, double* jacobian, double contrast_slope_per_mm) const {
+    const bool want_j = jacobian != nullptr;
     std::vector<double> conv, dn, db;
     model_.evaluate(x[kLogNu0], x[kBeta], conv, want_j ? &dn : nullptr, want_j ? &db : nullptr);
     const int n = model_.grid_size();
@@ -172,25 +178,25 @@ class ProfileCost final : public ceres::CostFunction {
       const double u = d_.u_mean_mm[i];
       const double light = x[kB0] + x[kB1] * u + x[kB2] * u * u;
       const double sig = at(conv);
-      const double model = light * (1 + x[kContrast] * sig);
+      const double c = x[kContrast] + contrast_slope_per_mm * u;
+      const double model = light * (1 + c * sig);
       const double w = 1.0 / d_.sigma[i];
       residuals[r] = (model - d_.value[i]) * w;
       if (want_j) {
-        double* J = jacobians[0] + r * kParamCount;
-        J[kB0] = (1 + x[kContrast] * sig) * w;
-        J[kB1] = u * (1 + x[kContrast] * sig) * w;
-        J[kLogNu0] = light * x[kContrast] * at(dn) * w;
-        J[kBeta] = light * x[kContrast] * at(db) * w;
+        double* J = jacobian + r * kParamCount;
+        J[kB0] = (1 + c * sig) * w;
+        J[kB1] = u * (1 + c * sig) * w;
+        J[kLogNu0] = light * c * at(dn) * w;
+        J[kBeta] = light * c * at(db) * w;
         J[kContrast] = light * sig * w;
-        J[kB2] = u * u * (1 + x[kContrast] * sig) * w;
+        J[kB2] = u * u * (1 + c * sig) * w;
       }
     }
-    return true;
   }
 
- private:
   const ProfileData& d_;
   const GridModel& model_;
+  double contrast_slope_per_mm_;
   std::vector<int> bins_;
 };
 
@@ -208,6 +214,8 @@ void ProfileFitOptions::validate() const {
     throw std::invalid_argument("profile fit: beta range must satisfy 0.5 <= min <= max <= 8");
   if (!fit_contrast && !(std::isfinite(contrast) && contrast != 0))
     throw std::invalid_argument("profile fit: a fixed contrast must be finite and non-zero");
+  if (!std::isfinite(contrast_slope_per_mm))
+    throw std::invalid_argument("profile fit: the contrast's slope must be finite");
   if (max_iterations < 1) throw std::invalid_argument("profile fit: max_iterations must be >= 1");
 }
 
@@ -254,7 +262,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   }
 
   GridModel model(data, options.signature);
-  auto* cost = new ProfileCost(data, model);
+  auto* cost = new ProfileCost(data, model, options.contrast_slope_per_mm);
   const int free_params = 3 + (options.fit_shape ? 1 : 0) + (options.fit_contrast ? 1 : 0) +
                           (options.quadratic_background ? 1 : 0);
   if (cost->residual_count() < free_params + 3) {

@@ -1,7 +1,9 @@
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <functional>
 #include <random>
+#include <stdexcept>
 
 #include <doctest/doctest.h>
 
@@ -119,6 +121,33 @@ TEST_CASE("shading profile: the edge-like signature gives the same transfer") {
   REQUIRE(fit.usable);
   const double m_true = std::exp(-2 * kPi * kPi * s * s * f * f);
   CHECK(std::abs(fit.transfer(f) - m_true) < 3e-3);
+}
+
+TEST_CASE("shading profile: a step that changes across the bars (light per point) is held as c + c' u") {
+  // The step falls from 1.8 c to 0.2 c across the triplet (u = -+2.5 bar
+  // widths), as on the flank of a spot: with c' the model describes the
+  // bars and the fit finds the transfer; with the centre's c alone it
+  // cannot describe them.
+  const Bars bars{0.05};
+  const double f = 1 / (2 * bars.w);
+  const double s = 0.6 * bars.w;
+  const double c = 0.004, slope_per_mm = -0.8 * c / (2.5 * bars.w);
+  auto truth = [&](double u) { return 150.0 * (1 + (c + slope_per_mm * u) * bars.blurred_slope(u, s)); };
+  const ProfileData d = make_profile(bars, bars.w / 12, 8 * bars.w, 4 * bars.w, truth, 0, nullptr);
+  ProfileFitOptions o;
+  o.signature = Signature::shading;
+  o.contrast = c;
+  o.contrast_slope_per_mm = slope_per_mm;
+  const double m_true = std::exp(-2 * kPi * kPi * s * s * f * f);
+  const ProfileFit with_slope = fit_profile(d, o);
+  REQUIRE(with_slope.usable);
+  CHECK(std::abs(with_slope.transfer(f) - m_true) < 3e-3);
+  o.contrast_slope_per_mm = 0;
+  const ProfileFit centre_only = fit_profile(d, o);
+  REQUIRE(centre_only.usable);
+  CHECK(centre_only.chi2_reduced > 1e4 * with_slope.chi2_reduced);
+  o.contrast_slope_per_mm = std::nan("");
+  CHECK_THROWS_AS(o.validate(), std::invalid_argument);
 }
 
 TEST_CASE("standard errors are calibrated on noisy profiles") {

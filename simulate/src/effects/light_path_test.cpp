@@ -453,7 +453,7 @@ TEST_CASE("light_path scene: bad values and combinations are refused, naming the
 }
 
 TEST_CASE("light_path scene: the eight example designs load fast and share one sensor") {
-  const std::filesystem::path dir = std::filesystem::path(TACTRES_SOURCE_DIR) / "examples/scenes/light_path";
+  const std::filesystem::path dir = std::filesystem::path(TACTRES_SOURCE_DIR) / "examples/scenes";
   std::optional<nlohmann::json> sensor;
   std::optional<double> exposure;
   for (const char* design : {"T1C1", "T1C2", "T1C3", "T1C4", "T2C1", "T2C2", "T2C3", "T2C4"}) {

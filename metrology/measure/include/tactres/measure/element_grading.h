@@ -64,7 +64,11 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
 // groups and cuts others), and so is a low_signal element whose m the fit
 // cannot pin down (m_undetermined: dust, a scratch or glare over a coarse
 // element of a real chart; dev_14's G4E1). Layout mode, which frames the
-// whole target it made, counts both as unresolved instead.
+// whole target it made, counts both as unresolved instead. In both, an
+// element whose level step a gain field cannot tell from zero
+// (ElementResult::m_scale_undetermined, low_signal) is unmeasured, and an ok
+// one that is not resolved only because that step is too uncertain is
+// bridged by the optical limit (the detectability limit counts its CNR).
 bool is_unmeasured(const ElementResult& r, bool chart_photograph);
 void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,
                    bool chart_photograph);

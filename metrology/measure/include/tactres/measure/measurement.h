@@ -78,6 +78,13 @@ struct ElementResult {
   // grading's limit): the data say nothing about this element, unlike a fit
   // that drives m to 0 (no modulation left).
   bool m_undetermined = false;
+  // The level step at the element, from a gain field near a line where the
+  // light runs along the bars, is known too poorly to scale m: low_signal
+  // when it cannot be told from zero (no fit; bridged by both limits), or
+  // ok with its error above the grading's limit on its own (bridged by the
+  // optical limit unless resolved anyway; its CNR counts). The measurement
+  // does not know whether the bars shade there (element_grading.h).
+  bool m_scale_undetermined = false;
   bool resolved = false;
   bool detectable = false;
   std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say

@@ -54,6 +54,16 @@ struct DetectabilityCriterion {
 
 // dI above, in the units of `ground_level`; 0 for a non-finite input.
 double bar_signal_ptp(double m, double contrast, double ground_level, Signature signature, double lp_per_mm);
+// A light that turns over the target changes a relief's level step across
+// an element: c(u) = c + c' u about its centre (u across the bars, mm).
+// Each bar then shows its own dI; the step a Rose CNR takes is their RMS
+// over the triplet's width (a matched filter over the bars), not the step
+// at the centre, which vanishes where the light's in-plane part across the
+// bars changes sign although the outer bars still shade. The triplet spans
+// 5 bar widths (3 bars, 2 gaps): |u| <= 1.25 / f. Returns
+// sign(c) sqrt(c^2 + (c' U)^2 / 3), U the half-width; c when c' = 0.
+double triplet_half_width_mm(double lp_per_mm);
+double rms_step_over_triplet(double contrast, double contrast_slope_per_mm, double lp_per_mm);
 // The level whose noise counts: B0 (1 + c / 2) for albedo, B0 for shading.
 double element_mean_level(double contrast, double ground_level, Signature signature);
 // Pixels one bar covers: bar width in px times its length, kUsafBarLengthInWidths

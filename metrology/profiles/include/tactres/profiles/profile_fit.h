@@ -19,7 +19,9 @@
 //       surface slope along the light direction: an edge-like signature;
 // c     the contrast scale: the ink/ground reflectance ratio minus one
 //       (albedo; bounded below by -1 when fitted) or the slope response (shading), measured on the
-//       reference patch and held fixed for the elements;
+//       reference patch and held fixed for the elements; c + c' u when the
+//       step changes across the strip (a light that turns over the target:
+//       c' from the gain field, held fixed; 0 otherwise);
 // B0+B1 u  the local illumination, multiplicative, so uneven light does not
 //       bias m.
 //
@@ -71,6 +73,12 @@ struct ProfileFitOptions {
   Signature signature = Signature::albedo;
   bool fit_contrast = false;    // true on the reference patch
   double contrast = -0.9;       // c, used when !fit_contrast
+  // c', the step's change per mm of u about the strip's centre (u = 0),
+  // held fixed: a gain field's gradient along u (docs/CONVENTIONS.md, "A
+  // light that varies over the target"). The three bars of an element on
+  // the flank of a spot shade 2-3x differently; a constant c would misread
+  // that as blur.
+  double contrast_slope_per_mm = 0;
   bool fit_shape = true;        // false: beta fixed at 2 (Gaussian)
   // Adds B2 u^2 to the light: wide profiles (the reference patch) can span a
   // curved illumination, e.g. the flank of a hot spot.
