@@ -37,7 +37,7 @@ struct ReliefCase {
   bool pinhole = false;   // the ideal lens instead of the wide-angle one
   // A shipped design scene (examples/scenes) instead of the effects above:
   // its light path, without its sensor (run_relief adds the noise).
-  std::string design;
+  std::string design{};
 };
 
 struct ReliefStats {
