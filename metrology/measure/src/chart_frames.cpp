@@ -124,11 +124,19 @@ PatternFrame frame_of(const BarPattern& p, BarOrientation o, double lp_per_mm) {
   return {p.center_px, o == BarOrientation::horizontal_bars ? p.bar_dir : perp(p.bar_dir), p.period_px * lp_per_mm};
 }
 
+Strip pattern_strip(const PatternRef& r, const ProfileSamplingOptions& so) { return element_strip(local_element(r), so); }
+
 ElementPlacement PlacementStore::place(const PatternRef& r, const PatternFrame& f, const ProfileSamplingOptions& so) {
   const ElementLayout e = local_element(r);
   frames_.push_back(f);
-  artworks_.emplace_back(local_artwork(D_, r, e, f), 0.0);
-  return {&frames_.back(), &artworks_.back(), element_strip(e, so)};
+  artworks_.push_back(std::make_shared<const IndexedArtwork>(local_artwork(D_, r, e, f), 0.0));
+  return {&frames_.back(), artworks_.back().get(), element_strip(e, so)};
+}
+
+std::shared_ptr<const IndexedArtwork> PlacementStore::shared_artwork(const IndexedArtwork* artwork) const {
+  for (const auto& a : artworks_)
+    if (a.get() == artwork) return a;
+  return nullptr;
 }
 
 SampledProfile PlacementStore::sample(const PatternRef& r, const PatternFrame& f,
@@ -163,8 +171,7 @@ PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const
   const SampledProfile p = sample(r, f, so);
   if (!p.in_view) return f;
   const double shift_mm = refine_shift(p.data, r.bar_width_mm(), D_.light_bars);
-  const Vec2 u_dir = r.orientation == BarOrientation::vertical_bars ? f.x_dir : f.y_dir();
-  f.center_px = f.center_px + (shift_mm * f.px_per_mm) * u_dir;
+  f.center_px = f.center_px + (shift_mm * f.px_per_mm) * across_dir(f, r.orientation);
   return f;
 }
 
@@ -172,8 +179,10 @@ PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const
 // three shifted ideals, twice, with the step shrinking. The correlation
 // centring (refine_shift) gets within a tenth of a bar or so; at sharp
 // edges and near the limit that residue would still read as blur.
-ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm) {
+ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm, double* shift_mm) {
   ProfileData best = d;
+  double total_mm = 0;
+  if (shift_mm) *shift_mm = 0;
   double h = 0.1 * w_mm;
   for (int iter = 0; iter < 2; ++iter, h /= 3) {
     double chi[3];
@@ -185,7 +194,10 @@ ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& f
     const double den = chi[0] - 2 * chi[1] + chi[2];
     // No curvature worth the name: the data do not place the pattern.
     if (!(den > 1e-3 * chi[1])) return best;
-    best = shifted(best, h * std::clamp(0.5 * (chi[0] - chi[2]) / den, -1.5, 1.5));
+    const double step_mm = h * std::clamp(0.5 * (chi[0] - chi[2]) / den, -1.5, 1.5);
+    best = shifted(best, step_mm);
+    total_mm += step_mm;
+    if (shift_mm) *shift_mm = total_mm;
   }
   return best;
 }
