@@ -109,22 +109,18 @@ ProfileData scaled(const ProfileData& d, double scale) {
   return out;
 }
 
-// The ideal pattern moved by `shift_mm` along u (the complement's constant
-// stays).
-ProfileData shifted(const ProfileData& d, double shift_mm) {
-  ProfileData out = d;
-  for (IdealBox& b : out.ideal)
-    if (!is_complement_box(d, b)) b.u0_mm += shift_mm, b.u1_mm += shift_mm;
-  return out;
-}
-
 }  // namespace
 
 PatternFrame frame_of(const BarPattern& p, BarOrientation o, double lp_per_mm) {
   return {p.center_px, o == BarOrientation::horizontal_bars ? p.bar_dir : perp(p.bar_dir), p.period_px * lp_per_mm};
 }
 
-Strip pattern_strip(const PatternRef& r, const ProfileSamplingOptions& so) { return element_strip(local_element(r), so); }
+ProfileData shifted_ideal(const ProfileData& d, double shift_mm) {
+  ProfileData out = d;
+  for (IdealBox& b : out.ideal)
+    if (!is_complement_box(d, b)) b.u0_mm += shift_mm, b.u1_mm += shift_mm;
+  return out;
+}
 
 ElementPlacement PlacementStore::place(const PatternRef& r, const PatternFrame& f, const ProfileSamplingOptions& so) {
   const ElementLayout e = local_element(r);
@@ -187,7 +183,7 @@ ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& f
   for (int iter = 0; iter < 2; ++iter, h /= 3) {
     double chi[3];
     for (int i = 0; i < 3; ++i) {
-      const ProfileFit f = fit_profile(shifted(best, (i - 1) * h), fo);
+      const ProfileFit f = fit_profile(shifted_ideal(best, (i - 1) * h), fo);
       if (!f.usable) return best;
       chi[i] = f.chi2_reduced;
     }
@@ -195,7 +191,7 @@ ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& f
     // No curvature worth the name: the data do not place the pattern.
     if (!(den > 1e-3 * chi[1])) return best;
     const double step_mm = h * std::clamp(0.5 * (chi[0] - chi[2]) / den, -1.5, 1.5);
-    best = shifted(best, step_mm);
+    best = shifted_ideal(best, step_mm);
     total_mm += step_mm;
     if (shift_mm) *shift_mm = total_mm;
   }
@@ -219,13 +215,13 @@ std::optional<double> fit_scale(const ProfileData& d, const ProfileFitOptions& f
   return 1 + x * h;
 }
 
-double ScaleField::at(Vec2 p) const { return std::exp(c[0] + c[1] * p.x + c[2] * p.y); }
+double PlaneField::at(Vec2 p) const { return c[0] + c[1] * p.x + c[2] * p.y; }
 
-ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples) {
-  ScaleField f;
+PlaneField fit_plane_field(const std::vector<std::pair<Vec2, double>>& samples) {
+  PlaneField f;
   if (samples.empty()) return f;
   double mean = 0;
-  for (const auto& s : samples) mean += std::log(s.second);
+  for (const auto& s : samples) mean += s.second;
   mean /= samples.size();
   f.c[0] = mean;
   f.valid = true;
@@ -235,11 +231,22 @@ ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples) 
     A.at<double>(int(i), 0) = 1;
     A.at<double>(int(i), 1) = samples[i].first.x;
     A.at<double>(int(i), 2) = samples[i].first.y;
-    b.at<double>(int(i)) = std::log(samples[i].second);
+    b.at<double>(int(i)) = samples[i].second;
   }
   cv::Mat x;
   if (!cv::solve(A, b, x, cv::DECOMP_SVD)) return f;
   for (int k = 0; k < 3; ++k) f.c[k] = x.at<double>(k);
+  return f;
+}
+
+double ScaleField::at(Vec2 p) const { return std::exp(log_scale.at(p)); }
+
+ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples) {
+  std::vector<std::pair<Vec2, double>> logs;
+  for (const auto& [p, px_per_mm] : samples) logs.push_back({p, std::log(px_per_mm)});
+  ScaleField f;
+  f.log_scale = fit_plane_field(logs);
+  f.valid = f.log_scale.valid;
   return f;
 }
 

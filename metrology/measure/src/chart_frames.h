@@ -43,9 +43,6 @@ inline Vec2 across_dir(const PatternFrame& f, BarOrientation o) {
   return o == BarOrientation::vertical_bars ? f.x_dir : f.y_dir();
 }
 
-// The strip across pattern `r` in its own plane.
-Strip pattern_strip(const PatternRef& r, const ProfileSamplingOptions& so);
-
 // Owns the frames and artworks that the element pipeline's placements point
 // to; a deque never moves what it holds.
 class PlacementStore {
@@ -85,18 +82,31 @@ class PlacementStore {
 ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm,
                                 double* shift_mm = nullptr);
 
+// The profile's ideal pattern moved by `shift_mm` along u (a negative
+// chart's complement constant stays).
+ProfileData shifted_ideal(const ProfileData& d, double shift_mm);
+
 // The scale of the pattern (relative to the frame's) that the profile model
 // prefers; nullopt unless the pattern pins it down.
 std::optional<double> fit_scale(const ProfileData& d, const ProfileFitOptions& fo);
 
-// Image scale across the bars over the chart, per orientation:
-// ln(px/mm) = c0 + c1 x + c2 y (pixels), fitted to the patterns whose scale
-// the profile model pinned down. A plane seen in mild perspective has a
-// smoothly varying scale, and the coarse patterns fix it far better than a
-// fine pattern near the limit can fix its own.
-struct ScaleField {
+// A quantity over the image: v = c0 + c1 x + c2 y (pixels), fitted by
+// least squares (a constant, their mean, from fewer than 4 samples).
+struct PlaneField {
   bool valid = false;
   double c[3] = {0, 0, 0};
+  double at(Vec2 p) const;
+};
+PlaneField fit_plane_field(const std::vector<std::pair<Vec2, double>>& samples);
+
+// Image scale across the bars over the chart, per orientation:
+// ln(px/mm) a plane field, fitted to the patterns whose scale the profile
+// model pinned down. A plane seen in mild perspective has a smoothly
+// varying scale, and the coarse patterns fix it far better than a fine
+// pattern near the limit can fix its own.
+struct ScaleField {
+  bool valid = false;
+  PlaneField log_scale;
   double at(Vec2 p) const;
 };
 ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples);

@@ -233,9 +233,7 @@ ProfileSamplingOptions anchor_sampling(ProfileSamplingOptions so) {
 SampledProfile sample_anchor(const LoadedImage& image, const ChartTrack& T, size_t i, const ChartMotion& motion,
                              PatternFrame& frame) {
   const ChartTrack::Pattern& p = T.patterns[i];
-  PatternFrame at_refit = p.frame;
-  at_refit.center_px = p.anchor_origin_px;
-  frame = motion.apply(at_refit, T.elements[i].orientation);
+  frame = motion.apply(p.frame, T.elements[i].orientation);
   return sample_placement(image.luminance, {&frame, p.artwork.get(), p.strip}, anchor_sampling(p.sampling),
                           T.detection.light_bars, image.saturation_level);
 }
@@ -261,10 +259,43 @@ void choose_anchors(const LoadedImage& image, const std::vector<size_t>& candida
   }
 }
 
-// What a refit established, for the frames after it: each pattern where
-// its fit centred it (the placement it was graded on, moved by the shift
-// search), its artwork and strip; the level steps; the graded elements
-// (measurement order, before the partial elements join them).
+// The bars' direction over the chart, per orientation, from the anchor
+// candidates, whose long, well-modulated bars place it to a small fraction
+// of a degree: a fine pattern's own detected direction can be off by a
+// degree or more, which tilts its strip against its bars, smears their
+// edges and reads m several percent low near the limit, differently on
+// every detection. The angle is a plane field over the image (mild
+// perspective turns the bars smoothly); each frame keeps its sign.
+void smooth_directions(const std::vector<size_t>& candidates, ChartTrack& T) {
+  constexpr size_t kMinSamples = 3;
+  for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+    std::vector<std::pair<Vec2, double>> samples;
+    double angle0_rad = 0;
+    for (size_t i : candidates) {
+      if (T.elements[i].orientation != o) continue;
+      const PatternFrame& f = T.patterns[i].frame;
+      const double a = std::atan2(f.x_dir.y, f.x_dir.x);
+      if (samples.empty()) angle0_rad = a;
+      // Bars have no head: fold the difference into (-pi/2, pi/2].
+      const double d = a - angle0_rad - M_PI * std::round((a - angle0_rad) / M_PI);
+      samples.push_back({f.center_px, d});
+    }
+    if (samples.size() < kMinSamples) continue;
+    const chart::PlaneField field = chart::fit_plane_field(samples);
+    for (size_t i = 0; i < T.patterns.size(); ++i) {
+      if (T.elements[i].orientation != o) continue;
+      PatternFrame& f = T.patterns[i].frame;
+      const double a = angle0_rad + field.at(f.center_px);
+      const Vec2 d{std::cos(a), std::sin(a)};
+      f.x_dir = dot(d, f.x_dir) < 0 ? -1.0 * d : d;
+    }
+  }
+}
+
+// What a refit established, for the frames after it: each pattern's frame
+// (the placement it was graded on) and the shift its fit chose there, its
+// artwork and strip; the level steps; the graded elements (measurement
+// order, before the partial elements join them).
 ChartTrack make_track(const LoadedImage& image, const ChartDetection& D, const std::vector<PatternRef>& refs,
                       const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
                       const std::vector<size_t>& graded, const ShiftLog& shifts, const chart::PlacementStore& store,
@@ -280,9 +311,7 @@ ChartTrack make_track(const LoadedImage& image, const ChartDetection& D, const s
     ChartTrack::Pattern& p = T.patterns.emplace_back();
     // Chart mode places every pattern through its own PatternFrame.
     p.frame = static_cast<const PatternFrame&>(*placed.plane);
-    p.anchor_origin_px = p.frame.center_px;
-    const double shift_px = logged_shift_mm(shifts, &profiles[j][k].data) * p.frame.px_per_mm;
-    p.frame.center_px = p.frame.center_px + shift_px * chart::across_dir(p.frame, refs[j].orientation);
+    p.fit_shift_mm = logged_shift_mm(shifts, &profiles[j][k].data);
     p.artwork = store.shared_artwork(placed.artwork);
     p.strip = placed.strip;
     p.sampling = jobs[j].sampling;
@@ -291,6 +320,7 @@ ChartTrack make_track(const LoadedImage& image, const ChartDetection& D, const s
         e.px_per_bar >= kAnchorMinPxPerBar)
       candidates.push_back(j);
   }
+  smooth_directions(candidates, T);
   choose_anchors(image, candidates, T);
   return T;
 }
@@ -320,7 +350,7 @@ chart::MotionFit track_motion(const LoadedImage& image, const ChartTrack& T,
     const auto shift_mm = chart::match_shift_mm(chart::level_profile(sp.data), T.patterns[i].anchor_levels, reach_mm);
     if (!shift_mm) continue;
     const Vec2 across = chart::across_dir(f, T.elements[i].orientation);
-    samples.push_back({T.patterns[i].anchor_origin_px, across, dot(across, f.center_px) + *shift_mm * f.px_per_mm});
+    samples.push_back({T.patterns[i].frame.center_px, across, dot(across, f.center_px) + *shift_mm * f.px_per_mm});
     anchor_profiles.push_back(std::move(sp));
   }
   chart::MotionFit fit = chart::fit_chart_motion(std::move(samples), kMotionOutlierPx);
@@ -376,6 +406,13 @@ ChartFrameResult measure_tracked(const LoadedImage& image, const ChartMeasureOpt
     job.placements.push_back({&frames[i], p.artwork.get(), p.strip});
     job.sampling = p.sampling;
     job.complement_ideal = T.detection.light_bars;
+    // Where the refit's fit centred the pattern in this frame (the profile
+    // is sampled on the frame as the refit sampled it: the fit depends a
+    // little on where the bins and the window fall).
+    if (p.fit_shift_mm != 0)
+      job.prepare = [shift_mm = p.fit_shift_mm](const ProfileData& d, const ProfileFitOptions&) {
+        return chart::shifted_ideal(d, shift_mm);
+      };
     jobs.push_back(std::move(job));
     index.push_back(i);
   }

@@ -76,8 +76,9 @@ ChartMeasurement measure_chart_detected(const LoadedImage& image, ChartDetection
 //    and scale), so a fine pattern is placed by the whole chart's motion,
 //    as precisely as its own fitted centre was on the refit, not by its own
 //    faint bars;
-//  - fits each element it measures once (no shift search, no second
-//    placement), with the refit's level steps;
+//  - fits each element it measures once, centred where the refit's fit
+//    centred it in its frame (no shift search, no second placement), with
+//    the refit's level steps;
 //  - optionally fits only the elements the plan accepts (those near the
 //    limit) and carries the others' last results.
 // It fails (a usable == false measurement; the caller measures from
@@ -101,16 +102,15 @@ struct ChartMotion {
 struct ChartTrack {
   ChartDetection detection;  // as detected on the refit
   struct Pattern {           // one per measured pattern, in measurement order
-    PatternFrame frame;      // on the refit, centred where its fit preferred
+    PatternFrame frame;      // the frame its profile was sampled in on the refit
+    double fit_shift_mm = 0; // where in that frame its fit centred it, along u
     std::shared_ptr<const IndexedArtwork> artwork;  // its plane's ideal (own bars and neighbours)
     Strip strip;
     ProfileSamplingOptions sampling;
     // Anchors (coarse, found, well modulated on the refit) follow the
     // chart's motion: their profile across the bars on the refit, (u mm,
-    // level) in a frame centred on `anchor_origin_px`, is what each later
-    // frame's profile is matched with.
+    // level) in `frame`, is what each later frame's profile is matched with.
     bool anchor = false;
-    Vec2 anchor_origin_px;
     std::vector<std::pair<double, double>> anchor_levels;
   };
   std::vector<Pattern> patterns;
