@@ -206,6 +206,11 @@ constexpr size_t kAnchorsPerOrientation = 6;
 // element's own bins: the match needs the edges' shape, not a bar's
 // worth of pixels per bin.
 constexpr double kAnchorBinPx = 0.5;
+// An anchor's strip runs at most this far along its bars on each side of
+// its centre (px): sixteen pixel rows across three edges place it to a few
+// hundredths of a pixel, and a coarse pattern's full strip costs tens of
+// thousands of pixels per frame.
+constexpr double kAnchorHalfLengthPx = 8.0;
 // An anchor's profile is matched within this many of its bar widths: the
 // pattern repeats at two, and the coarse anchors, matched first, bring the
 // fine ones within their reach.
@@ -234,7 +239,9 @@ SampledProfile sample_anchor(const LoadedImage& image, const ChartTrack& T, size
                              PatternFrame& frame) {
   const ChartTrack::Pattern& p = T.patterns[i];
   frame = motion.apply(p.frame, T.elements[i].orientation);
-  return sample_placement(image.luminance, {&frame, p.artwork.get(), p.strip}, anchor_sampling(p.sampling),
+  Strip strip = p.strip;
+  strip.half_v_mm = std::min(strip.half_v_mm, kAnchorHalfLengthPx / p.frame.px_per_mm);
+  return sample_placement(image.luminance, {&frame, p.artwork.get(), strip}, anchor_sampling(p.sampling),
                           T.detection.light_bars, image.saturation_level);
 }
 
