@@ -523,8 +523,24 @@ PatternFrame ChartMotion::apply(const PatternFrame& f, BarOrientation bars) cons
   return out;
 }
 
+namespace {
+
+// detect_chart, then measure_detected; its time first among the stages.
+ChartMeasurement detect_and_measure(const LoadedImage& image, const ChartMeasureOptions& options,
+                                    std::optional<ChartTrack>* track) {
+  options.validate();
+  Stopwatch t;
+  ChartDetection detection = detect_chart(image.luminance, options.detect);
+  const double detect_seconds = t.seconds();
+  ChartMeasurement out = measure_detected(image, std::move(detection), options, track);
+  out.measurement.stage_seconds.insert(out.measurement.stage_seconds.begin(), {"detect_chart", detect_seconds});
+  return out;
+}
+
+}  // namespace
+
 ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptions& options) {
-  return measure_chart_frame(image, options, {}).measurement;
+  return detect_and_measure(image, options, nullptr);
 }
 
 ChartMeasurement measure_chart_detected(const LoadedImage& image, ChartDetection detection,
@@ -534,15 +550,12 @@ ChartMeasurement measure_chart_detected(const LoadedImage& image, ChartDetection
 
 ChartFrameResult measure_chart_frame(const LoadedImage& image, const ChartMeasureOptions& options,
                                      const ChartFramePlan& plan) {
-  options.validate();
-  if (plan.track) return measure_tracked(image, options, plan);
+  if (plan.track) {
+    options.validate();
+    return measure_tracked(image, options, plan);
+  }
   ChartFrameResult out;
-  Stopwatch t;
-  ChartDetection detection = detect_chart(image.luminance, options.detect);
-  const double detect_seconds = t.seconds();
-  out.measurement = measure_detected(image, std::move(detection), options, &out.track);
-  out.measurement.measurement.stage_seconds.insert(out.measurement.measurement.stage_seconds.begin(),
-                                                   {"detect_chart", detect_seconds});
+  out.measurement = detect_and_measure(image, options, &out.track);
   return out;
 }
 

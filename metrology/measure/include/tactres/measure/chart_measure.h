@@ -139,7 +139,7 @@ struct ChartFrameResult {
 };
 
 // measure_chart with a plan: measure_chart(...) is
-// measure_chart_frame(..., {}).measurement.
+// measure_chart_frame(..., {}).measurement (which also makes the track).
 ChartFrameResult measure_chart_frame(const LoadedImage& image, const ChartMeasureOptions& options,
                                      const ChartFramePlan& plan);
 
