@@ -79,6 +79,15 @@ void LiveMeasurer::always_fit(BarOrientation o, int group, int element) {
   (o == BarOrientation::horizontal_bars ? always_h_ : always_v_) = std::pair(group, element);
 }
 
+bool LiveMeasurer::fit_near_limit(int group, int element, double lp_per_mm, BarOrientation o,
+                                  double coarsest_lp_per_mm) const {
+  const bool h = o == BarOrientation::horizontal_bars;
+  const std::optional<std::pair<int, int>>& always = h ? always_h_ : always_v_;
+  if (always && always->first == group && always->second == element) return true;
+  return std::abs(elements_from_limit(lp_per_mm, h ? last_h_ : last_v_, coarsest_lp_per_mm)) <=
+         options_.near_limit_span + 0.01;
+}
+
 FramePlan LiveMeasurer::plan_for(bool refit) const {
   FramePlan plan;
   if (!options_.tracking || !track_) return plan;
@@ -87,14 +96,10 @@ FramePlan LiveMeasurer::plan_for(bool refit) const {
   if (options_.elements == LiveElements::near_limit && !refit &&
       last_elements_.size() == layout_->elements.size()) {
     const double coarsest = layout_->elements.front().lp_per_mm;
-    const double span = options_.near_limit_span;
     plan.carried = &last_elements_;
-    plan.fit_element = [this, coarsest, span](size_t i) {
+    plan.fit_element = [this, coarsest](size_t i) {
       const ElementLayout& e = layout_->elements[i];
-      const bool h = e.orientation == BarOrientation::horizontal_bars;
-      const std::optional<std::pair<int, int>>& always = h ? always_h_ : always_v_;
-      if (always && always->first == e.group && always->second == e.element) return true;
-      return std::abs(elements_from_limit(e.lp_per_mm, h ? last_h_ : last_v_, coarsest)) <= span + 0.01;
+      return fit_near_limit(e.group, e.element, e.lp_per_mm, e.orientation, coarsest);
     };
   }
   return plan;
@@ -123,26 +128,43 @@ LiveFrameResult LiveMeasurer::measure_layout(const LoadedImage& image, bool refi
   return r;
 }
 
+ChartFramePlan LiveMeasurer::chart_plan_for(bool refit) const {
+  ChartFramePlan plan;
+  if (!options_.tracking || !chart_track_ || refit) return plan;
+  plan.track = &*chart_track_;
+  if (options_.elements == LiveElements::near_limit && !chart_track_->elements.empty()) {
+    const double coarsest = chart_track_->elements.front().lp_per_mm;
+    plan.fit_element = [this, coarsest](const ElementResult& e) {
+      return fit_near_limit(e.group, e.element, e.lp_per_mm, e.orientation, coarsest);
+    };
+  }
+  return plan;
+}
+
 LiveFrameResult LiveMeasurer::measure_chart_frame(const LoadedImage& image, bool refit) {
   LiveFrameResult r;
   ChartMeasureOptions co;
   co.measure = options_.measure;
   co.detect = options_.chart_detect;
-  ChartMeasurement cm;
-  const bool carry = options_.tracking && chart_track_ && !refit;
-  if (carry) {
-    cm = measure_chart_detected(image, *chart_track_, co);
-    r.tracked = cm.measurement.usable;
+  const ChartFramePlan plan = chart_plan_for(refit);
+  ChartFrameResult f = tactres::measure_chart_frame(image, co, plan);
+  if (!f.measurement.measurement.usable && plan.track) {
+    // The chart moved too far to follow, or the carried frame shows
+    // nothing resolved: detect and measure this frame from scratch.
+    f = tactres::measure_chart_frame(image, co, {});
   }
-  if (!carry || !cm.measurement.usable) {
-    cm = measure_chart(image, co);
-    r.refit = true;
+  Measurement& M = f.measurement.measurement;
+  r.measured = M.usable;
+  r.problem = M.problem;
+  r.tracked = f.tracked;
+  r.refit = !f.tracked;
+  r.relative = f.measurement.detection.anchor == ChartAnchor::none;
+  if (r.measured) {
+    chart_track_ = std::move(f.track);
+    last_h_ = M.horizontal;
+    last_v_ = M.vertical;
   }
-  r.measured = cm.measurement.usable;
-  r.problem = cm.measurement.problem;
-  r.relative = cm.detection.anchor == ChartAnchor::none;
-  r.measurement = std::move(cm.measurement);
-  if (r.measured) chart_track_ = std::move(cm.detection);
+  r.measurement = std::move(M);
   return r;
 }
 

@@ -147,6 +147,7 @@ int main(int argc, char** argv) {
   const Mode chart_modes[] = {
       {"fast, from scratch", Preset::fast, false, LiveElements::all},
       {"fast, tracking", Preset::fast, true, LiveElements::all},
+      {"fast, tracking, near-limit", Preset::fast, true, LiveElements::near_limit},
   };
   for (const Mode& m : chart_modes)
     if (wanted("chart", m)) run("chart", chart_frames, nullptr, nullptr, m, 1);

@@ -109,26 +109,30 @@ ProfileData scaled(const ProfileData& d, double scale) {
   return out;
 }
 
-// The ideal pattern moved by `shift_mm` along u (the complement's constant
-// stays).
-ProfileData shifted(const ProfileData& d, double shift_mm) {
-  ProfileData out = d;
-  for (IdealBox& b : out.ideal)
-    if (!is_complement_box(d, b)) b.u0_mm += shift_mm, b.u1_mm += shift_mm;
-  return out;
-}
-
 }  // namespace
 
 PatternFrame frame_of(const BarPattern& p, BarOrientation o, double lp_per_mm) {
   return {p.center_px, o == BarOrientation::horizontal_bars ? p.bar_dir : perp(p.bar_dir), p.period_px * lp_per_mm};
 }
 
+ProfileData shifted_ideal(const ProfileData& d, double shift_mm) {
+  ProfileData out = d;
+  for (IdealBox& b : out.ideal)
+    if (!is_complement_box(d, b)) b.u0_mm += shift_mm, b.u1_mm += shift_mm;
+  return out;
+}
+
 ElementPlacement PlacementStore::place(const PatternRef& r, const PatternFrame& f, const ProfileSamplingOptions& so) {
   const ElementLayout e = local_element(r);
   frames_.push_back(f);
-  artworks_.emplace_back(local_artwork(D_, r, e, f), 0.0);
-  return {&frames_.back(), &artworks_.back(), element_strip(e, so)};
+  artworks_.push_back(std::make_shared<const IndexedArtwork>(local_artwork(D_, r, e, f), 0.0));
+  return {&frames_.back(), artworks_.back().get(), element_strip(e, so)};
+}
+
+std::shared_ptr<const IndexedArtwork> PlacementStore::shared_artwork(const IndexedArtwork* artwork) const {
+  for (const auto& a : artworks_)
+    if (a.get() == artwork) return a;
+  return nullptr;
 }
 
 SampledProfile PlacementStore::sample(const PatternRef& r, const PatternFrame& f,
@@ -163,8 +167,7 @@ PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const
   const SampledProfile p = sample(r, f, so);
   if (!p.in_view) return f;
   const double shift_mm = refine_shift(p.data, r.bar_width_mm(), D_.light_bars);
-  const Vec2 u_dir = r.orientation == BarOrientation::vertical_bars ? f.x_dir : f.y_dir();
-  f.center_px = f.center_px + (shift_mm * f.px_per_mm) * u_dir;
+  f.center_px = f.center_px + (shift_mm * f.px_per_mm) * across_dir(f, r.orientation);
   return f;
 }
 
@@ -172,20 +175,25 @@ PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const
 // three shifted ideals, twice, with the step shrinking. The correlation
 // centring (refine_shift) gets within a tenth of a bar or so; at sharp
 // edges and near the limit that residue would still read as blur.
-ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm) {
+ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm, double* shift_mm) {
   ProfileData best = d;
+  double total_mm = 0;
+  if (shift_mm) *shift_mm = 0;
   double h = 0.1 * w_mm;
   for (int iter = 0; iter < 2; ++iter, h /= 3) {
     double chi[3];
     for (int i = 0; i < 3; ++i) {
-      const ProfileFit f = fit_profile(shifted(best, (i - 1) * h), fo);
+      const ProfileFit f = fit_profile(shifted_ideal(best, (i - 1) * h), fo);
       if (!f.usable) return best;
       chi[i] = f.chi2_reduced;
     }
     const double den = chi[0] - 2 * chi[1] + chi[2];
     // No curvature worth the name: the data do not place the pattern.
     if (!(den > 1e-3 * chi[1])) return best;
-    best = shifted(best, h * std::clamp(0.5 * (chi[0] - chi[2]) / den, -1.5, 1.5));
+    const double step_mm = h * std::clamp(0.5 * (chi[0] - chi[2]) / den, -1.5, 1.5);
+    best = shifted_ideal(best, step_mm);
+    total_mm += step_mm;
+    if (shift_mm) *shift_mm = total_mm;
   }
   return best;
 }
@@ -207,13 +215,13 @@ std::optional<double> fit_scale(const ProfileData& d, const ProfileFitOptions& f
   return 1 + x * h;
 }
 
-double ScaleField::at(Vec2 p) const { return std::exp(c[0] + c[1] * p.x + c[2] * p.y); }
+double PlaneField::at(Vec2 p) const { return c[0] + c[1] * p.x + c[2] * p.y; }
 
-ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples) {
-  ScaleField f;
+PlaneField fit_plane_field(const std::vector<std::pair<Vec2, double>>& samples) {
+  PlaneField f;
   if (samples.empty()) return f;
   double mean = 0;
-  for (const auto& s : samples) mean += std::log(s.second);
+  for (const auto& s : samples) mean += s.second;
   mean /= samples.size();
   f.c[0] = mean;
   f.valid = true;
@@ -223,11 +231,22 @@ ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples) 
     A.at<double>(int(i), 0) = 1;
     A.at<double>(int(i), 1) = samples[i].first.x;
     A.at<double>(int(i), 2) = samples[i].first.y;
-    b.at<double>(int(i)) = std::log(samples[i].second);
+    b.at<double>(int(i)) = samples[i].second;
   }
   cv::Mat x;
   if (!cv::solve(A, b, x, cv::DECOMP_SVD)) return f;
   for (int k = 0; k < 3; ++k) f.c[k] = x.at<double>(k);
+  return f;
+}
+
+double ScaleField::at(Vec2 p) const { return std::exp(log_scale.at(p)); }
+
+ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples) {
+  std::vector<std::pair<Vec2, double>> logs;
+  for (const auto& [p, px_per_mm] : samples) logs.push_back({p, std::log(px_per_mm)});
+  ScaleField f;
+  f.log_scale = fit_plane_field(logs);
+  f.valid = f.log_scale.valid;
   return f;
 }
 

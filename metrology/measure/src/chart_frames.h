@@ -7,6 +7,7 @@
 // because the profile model has no shift: a misplaced pattern reads as blur.
 
 #include <deque>
+#include <memory>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -36,6 +37,12 @@ struct PatternRef {
 // bars of a horizontal-bar pattern, across those of a vertical-bar one.
 PatternFrame frame_of(const BarPattern& p, BarOrientation o, double lp_per_mm);
 
+// The image direction across the bars (the profile's u) of a frame whose
+// pattern has orientation `o`.
+inline Vec2 across_dir(const PatternFrame& f, BarOrientation o) {
+  return o == BarOrientation::vertical_bars ? f.x_dir : f.y_dir();
+}
+
 // Owns the frames and artworks that the element pipeline's placements point
 // to; a deque never moves what it holds.
 class PlacementStore {
@@ -45,6 +52,10 @@ class PlacementStore {
 
   // A placement of `r` in frame `f`, kept for the store's lifetime.
   ElementPlacement place(const PatternRef& r, const PatternFrame& f, const ProfileSamplingOptions& so);
+  // The artwork a placement of this store points to, shared, so that a live
+  // sequence's track can keep it after the store is gone (the neighbours sit
+  // at the same plane mm while the chart moves as a whole).
+  std::shared_ptr<const IndexedArtwork> shared_artwork(const IndexedArtwork* artwork) const;
   // The strip of `r` seen through frame `f` (the ideal complemented for a
   // negative chart), without keeping the placement.
   SampledProfile sample(const PatternRef& r, const PatternFrame& f, const ProfileSamplingOptions& so) const;
@@ -62,25 +73,40 @@ class PlacementStore {
   const ChartDetection& D_;
   double clip_;
   std::deque<PatternFrame> frames_;
-  std::deque<IndexedArtwork> artworks_;
+  std::deque<std::shared_ptr<const IndexedArtwork>> artworks_;
 };
 
 // The shift the profile model itself prefers, to a small fraction of a bar
-// of width `w_mm`; returns the profile with its ideal moved.
-ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm);
+// of width `w_mm`; returns the profile with its ideal moved, and the shift
+// (mm along u) in `shift_mm` when given.
+ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm,
+                                double* shift_mm = nullptr);
+
+// The profile's ideal pattern moved by `shift_mm` along u (a negative
+// chart's complement constant stays).
+ProfileData shifted_ideal(const ProfileData& d, double shift_mm);
 
 // The scale of the pattern (relative to the frame's) that the profile model
 // prefers; nullopt unless the pattern pins it down.
 std::optional<double> fit_scale(const ProfileData& d, const ProfileFitOptions& fo);
 
-// Image scale across the bars over the chart, per orientation:
-// ln(px/mm) = c0 + c1 x + c2 y (pixels), fitted to the patterns whose scale
-// the profile model pinned down. A plane seen in mild perspective has a
-// smoothly varying scale, and the coarse patterns fix it far better than a
-// fine pattern near the limit can fix its own.
-struct ScaleField {
+// A quantity over the image: v = c0 + c1 x + c2 y (pixels), fitted by
+// least squares (a constant, their mean, from fewer than 4 samples).
+struct PlaneField {
   bool valid = false;
   double c[3] = {0, 0, 0};
+  double at(Vec2 p) const;
+};
+PlaneField fit_plane_field(const std::vector<std::pair<Vec2, double>>& samples);
+
+// Image scale across the bars over the chart, per orientation:
+// ln(px/mm) a plane field, fitted to the patterns whose scale the profile
+// model pinned down. A plane seen in mild perspective has a smoothly
+// varying scale, and the coarse patterns fix it far better than a fine
+// pattern near the limit can fix its own.
+struct ScaleField {
+  bool valid = false;
+  PlaneField log_scale;
   double at(Vec2 p) const;
 };
 ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples);

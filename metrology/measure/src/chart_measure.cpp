@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "chart_frames.h"
+#include "chart_motion.h"
 #include "tactres/measure/element_pipeline.h"
 #include "tactres/targets/usaf_series.h"
 #include "tactres/util/stopwatch.h"
@@ -64,9 +65,15 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
 // sampled patterns (~3 px per bar, m ~ 0.1) the correlation can lock half
 // a bar off while the binarised bars' centroid was right, and a misplaced
 // pattern reads as blur: the pipeline keeps whichever the model fits better.
+//
+// `shifts` records, per profile the shift search ran on, the shift it chose
+// (mm along u): a live sequence's track keeps where each pattern's fit
+// centred it.
+using ShiftLog = std::vector<std::pair<const ProfileData*, double>>;
+
 std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<PatternRef>& refs,
                                      const std::vector<PatternFrame>& frames, chart::PlacementStore& store,
-                                     const MeasureOptions& mo) {
+                                     const MeasureOptions& mo, ShiftLog* shifts) {
   std::vector<ElementJob> jobs;
   for (size_t i = 0; i < refs.size(); ++i) {
     const PatternRef& r = refs[i];
@@ -86,8 +93,11 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
     // A predicted pattern is placed by its column, more precisely than its
     // faint bars could place it; a found one is centred on its data.
     if (!pattern.predicted)
-      job.prepare = [w = r.bar_width_mm()](const ProfileData& d, const ProfileFitOptions& o) {
-        return chart::refine_shift_by_fit(d, o, w);
+      job.prepare = [w = r.bar_width_mm(), shifts](const ProfileData& d, const ProfileFitOptions& o) {
+        double shift_mm = 0;
+        ProfileData out = chart::refine_shift_by_fit(d, o, w, &shift_mm);
+        if (shifts) shifts->push_back({&d, shift_mm});
+        return out;
       };
     jobs.push_back(std::move(job));
   }
@@ -149,66 +159,19 @@ void add_partial_elements(const ChartDetection& D, Measurement& M) {
   });
 }
 
-}  // namespace
-
-ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptions& options) {
-  options.validate();
-  Stopwatch t;
-  ChartDetection detection = detect_chart(image.luminance, options.detect);
-  const double detect_seconds = t.seconds();
-  ChartMeasurement out = measure_chart_detected(image, std::move(detection), options);
-  out.measurement.stage_seconds.insert(out.measurement.stage_seconds.begin(), {"detect_chart", detect_seconds});
-  return out;
-}
-
-ChartMeasurement measure_chart_detected(const LoadedImage& image, ChartDetection detection,
-                                        const ChartMeasureOptions& options) {
-  options.validate();
-  const MeasureOptions& mo = options.measure;
-  ChartMeasurement out;
-  out.detection = std::move(detection);
-  Measurement& M = out.measurement;
+void start_measurement(const LoadedImage& image, Measurement& M) {
   M.image_width = image.width;
   M.image_height = image.height;
   M.camera_source = "none: chart mode, each pattern in its own frame from the detection";
   M.distortion_corrected = false;
   M.transfer = image.transfer;
-  const cv::Mat& lum = image.luminance;
-  const ChartDetection& D = out.detection;
-  if (!D.found) {
-    M.problem = D.problem;
-    return out;
-  }
+}
 
+// The limits from the graded elements (in measurement order), then the
+// elements of which only one pattern was found, and whether anything is
+// resolved at all.
+void decide_chart(const ChartDetection& D, const MeasureOptions& mo, Measurement& M) {
   Stopwatch t;
-  std::vector<PatternRef> refs;
-  for (const ChartElement& e : D.elements) {
-    const double f = usaf_lp_per_mm(e.group, e.element);
-    refs.push_back({e.h, BarOrientation::horizontal_bars, e.group, e.element, f});
-    refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f});
-  }
-  chart::PlacementStore store(lum, D, image.saturation_level);
-  const std::vector<PatternFrame> frames = pattern_frames(D, refs, store, mo);
-  const std::vector<ElementJob> jobs = pattern_jobs(D, refs, frames, store, mo);
-  const auto profiles = sample_jobs(lum, jobs, image.saturation_level);
-  M.stage_seconds.push_back({"frames", t.seconds()});
-
-  t.restart();
-  const bool scaled = chart_level_steps(D, refs, jobs, profiles, mo, M.reference);
-  M.stage_seconds.push_back({"reference_patch", t.seconds()});
-  if (!scaled) {
-    M.problem =
-        "the chart's level step cannot be measured: no element in full view has 3 or more pixels per bar with "
-        "visible bars; frame a coarser group or bring the chart into focus";
-    return out;
-  }
-  // Nyquist at the chart plane, from the largest element's scale.
-  M.nyquist_h_lp_per_mm = 0.5 * frames[0].px_per_mm;
-  M.nyquist_v_lp_per_mm = 0.5 * frames[1].px_per_mm;
-
-  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false}, M.elements)});
-
-  t.restart();
   // The limit runs over the elements in view: a chart photograph frames
   // some groups and cuts others, and a cut coarse element says nothing
   // about the finer ones (layout mode, which frames the whole target,
@@ -225,6 +188,374 @@ ChartMeasurement measure_chart_detected(const LoadedImage& image, ChartDetection
         "nothing on the chart is resolved: even the coarsest element found is below the criterion; bring the "
         "chart into focus or frame coarser groups";
   }
+}
+
+// ---------------------------------------------------------------------------
+// Live tracking (chart_measure.h, ChartTrack).
+
+// Anchors: patterns with at least this many pixels per bar (where the
+// scale field is measured too) and at least this modulation on the refit:
+// their edges place them to a few hundredths of a pixel.
+constexpr double kAnchorMinPxPerBar = 4.0;
+constexpr double kAnchorMinM = 0.3;
+// Per orientation, spread over the candidates from fine to coarse: fine
+// ones cost little to sample and sit near the fine groups; coarse ones
+// follow a larger jump.
+constexpr size_t kAnchorsPerOrientation = 6;
+// Anchor profiles are binned at most this fine (px), whatever the
+// element's own bins: the match needs the edges' shape, not a bar's
+// worth of pixels per bin.
+constexpr double kAnchorBinPx = 0.5;
+// An anchor's strip runs at most this far along its bars on each side of
+// its centre (px): sixteen pixel rows across three edges place it to a few
+// hundredths of a pixel, and a coarse pattern's full strip costs tens of
+// thousands of pixels per frame.
+constexpr double kAnchorHalfLengthPx = 8.0;
+// An anchor's profile is matched within this many of its bar widths: the
+// pattern repeats at two, and the coarse anchors, matched first, bring the
+// fine ones within their reach.
+constexpr double kAnchorReachBarWidths = 0.9;
+// The motion must explain every anchor to this (the worst is dropped
+// otherwise) and all of them together to the RMS below, or the frame is
+// measured from scratch: a fine pattern's centre is only as good as this.
+constexpr double kMotionOutlierPx = 0.3;
+constexpr double kMotionMaxRmsPx = 0.1;
+
+// The shift search's choice for one profile (0 when none ran: a predicted
+// pattern, or a profile out of view).
+double logged_shift_mm(const ShiftLog& log, const ProfileData* d) {
+  for (const auto& [profile, shift_mm] : log)
+    if (profile == d) return shift_mm;
+  return 0;
+}
+
+ProfileSamplingOptions anchor_sampling(ProfileSamplingOptions so) {
+  so.bin_px = std::min(so.bin_px, kAnchorBinPx);
+  return so;
+}
+
+// Anchor pattern `i` of the track sampled where `motion` puts it.
+SampledProfile sample_anchor(const LoadedImage& image, const ChartTrack& T, size_t i, const ChartMotion& motion,
+                             PatternFrame& frame) {
+  const ChartTrack::Pattern& p = T.patterns[i];
+  frame = motion.apply(p.frame, T.elements[i].orientation);
+  Strip strip = p.strip;
+  strip.half_v_mm = std::min(strip.half_v_mm, kAnchorHalfLengthPx / p.frame.px_per_mm);
+  return sample_placement(image.luminance, {&frame, p.artwork.get(), strip}, anchor_sampling(p.sampling),
+                          T.detection.light_bars, image.saturation_level);
+}
+
+// Marks the anchors among the track's patterns (per orientation the
+// candidates sorted by pixels per bar, kAnchorsPerOrientation of them
+// evenly spread over that list) and keeps their profiles on the refit.
+void choose_anchors(const LoadedImage& image, const std::vector<size_t>& candidates, ChartTrack& T) {
+  const std::vector<ElementResult>& elements = T.elements;
+  for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+    std::vector<size_t> c;
+    for (size_t i : candidates)
+      if (elements[i].orientation == o) c.push_back(i);
+    std::sort(c.begin(), c.end(), [&](size_t a, size_t b) { return elements[a].px_per_bar < elements[b].px_per_bar; });
+    const size_t n = std::min(c.size(), kAnchorsPerOrientation);
+    for (size_t k = 0; k < n; ++k) {
+      const size_t i = c[n > 1 ? k * (c.size() - 1) / (n - 1) : 0];
+      PatternFrame frame;
+      const SampledProfile sp = sample_anchor(image, T, i, {}, frame);
+      T.patterns[i].anchor_levels = chart::level_profile(sp.data);
+      T.patterns[i].anchor = sp.in_view;
+    }
+  }
+}
+
+// The bars' direction over the chart, per orientation, from the anchor
+// candidates, whose long, well-modulated bars place it to a small fraction
+// of a degree: a fine pattern's own detected direction can be off by a
+// degree or more, which tilts its strip against its bars, smears their
+// edges and reads m several percent low near the limit, differently on
+// every detection. The angle is a plane field over the image (mild
+// perspective turns the bars smoothly); each frame keeps its sign.
+void smooth_directions(const std::vector<size_t>& candidates, ChartTrack& T) {
+  constexpr size_t kMinSamples = 3;
+  for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+    std::vector<std::pair<Vec2, double>> samples;
+    double angle0_rad = 0;
+    for (size_t i : candidates) {
+      if (T.elements[i].orientation != o) continue;
+      const PatternFrame& f = T.patterns[i].frame;
+      const double a = std::atan2(f.x_dir.y, f.x_dir.x);
+      if (samples.empty()) angle0_rad = a;
+      // Bars have no head: fold the difference into (-pi/2, pi/2].
+      const double d = a - angle0_rad - M_PI * std::round((a - angle0_rad) / M_PI);
+      samples.push_back({f.center_px, d});
+    }
+    if (samples.size() < kMinSamples) continue;
+    const chart::PlaneField field = chart::fit_plane_field(samples);
+    for (size_t i = 0; i < T.patterns.size(); ++i) {
+      if (T.elements[i].orientation != o) continue;
+      PatternFrame& f = T.patterns[i].frame;
+      const double a = angle0_rad + field.at(f.center_px);
+      const Vec2 d{std::cos(a), std::sin(a)};
+      f.x_dir = dot(d, f.x_dir) < 0 ? -1.0 * d : d;
+    }
+  }
+}
+
+// What a refit established, for the frames after it: each pattern's frame
+// (the placement it was graded on) and the shift its fit chose there, its
+// artwork and strip; the level steps; the graded elements (measurement
+// order, before the partial elements join them).
+ChartTrack make_track(const LoadedImage& image, const ChartDetection& D, const std::vector<PatternRef>& refs,
+                      const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
+                      const std::vector<size_t>& graded, const ShiftLog& shifts, const chart::PlacementStore& store,
+                      const Measurement& M) {
+  ChartTrack T;
+  T.detection = D;
+  T.reference = M.reference;
+  T.elements = M.elements;
+  std::vector<size_t> candidates;
+  for (size_t j = 0; j < jobs.size(); ++j) {
+    const size_t k = graded[j];
+    const ElementPlacement& placed = jobs[j].placements[k];
+    ChartTrack::Pattern& p = T.patterns.emplace_back();
+    // Chart mode places every pattern through its own PatternFrame.
+    p.frame = static_cast<const PatternFrame&>(*placed.plane);
+    p.fit_shift_mm = logged_shift_mm(shifts, &profiles[j][k].data);
+    p.artwork = store.shared_artwork(placed.artwork);
+    p.strip = placed.strip;
+    p.sampling = jobs[j].sampling;
+    const ElementResult& e = M.elements[j];
+    if (!D.patterns[refs[j].pattern].predicted && e.status == ElementStatus::ok && e.m >= kAnchorMinM &&
+        e.px_per_bar >= kAnchorMinPxPerBar)
+      candidates.push_back(j);
+  }
+  smooth_directions(candidates, T);
+  choose_anchors(image, candidates, T);
+  return T;
+}
+
+// How the chart moved since the refit. The anchors are matched coarse to
+// fine: the coarse half where the last frame's motion puts them (they
+// reach furthest), the fine half where those say. Their profiles go to
+// `anchor_profiles` (coarse strips, for the noise pool).
+chart::MotionFit track_motion(const LoadedImage& image, const ChartTrack& T,
+                              std::vector<SampledProfile>& anchor_profiles) {
+  std::vector<size_t> order;
+  for (size_t i = 0; i < T.patterns.size(); ++i)
+    if (T.patterns[i].anchor) order.push_back(i);
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return T.elements[a].px_per_bar > T.elements[b].px_per_bar; });
+  std::vector<chart::MotionSample> samples;
+  ChartMotion predicted = T.motion;
+  for (size_t k = 0; k < order.size(); ++k) {
+    if (k == (order.size() + 1) / 2)
+      if (const chart::MotionFit coarse = chart::fit_chart_motion(samples, kMotionOutlierPx); coarse.ok)
+        predicted = coarse.motion;
+    const size_t i = order[k];
+    PatternFrame f;
+    SampledProfile sp = sample_anchor(image, T, i, predicted, f);
+    if (!sp.in_view) continue;
+    const double reach_mm = kAnchorReachBarWidths * 0.5 / T.elements[i].lp_per_mm;
+    const auto shift_mm = chart::match_shift_mm(chart::level_profile(sp.data), T.patterns[i].anchor_levels, reach_mm);
+    if (!shift_mm) continue;
+    const Vec2 across = chart::across_dir(f, T.elements[i].orientation);
+    samples.push_back({T.patterns[i].frame.center_px, across, dot(across, f.center_px) + *shift_mm * f.px_per_mm});
+    anchor_profiles.push_back(std::move(sp));
+  }
+  chart::MotionFit fit = chart::fit_chart_motion(std::move(samples), kMotionOutlierPx);
+  fit.ok = fit.ok && fit.rms_px <= kMotionMaxRmsPx;
+  return fit;
+}
+
+// The detection moved with the chart (for the overlay and the caller).
+ChartDetection moved_detection(const ChartDetection& D, const ChartMotion& motion) {
+  ChartDetection out = D;
+  for (BarPattern& p : out.patterns) {
+    p.center_px = motion.apply(p.center_px);
+    const Vec2 d = motion.apply_linear(p.bar_dir);
+    p.bar_dir = (1.0 / norm(d)) * d;
+    for (Vec2& c : p.bar_centers_px) c = motion.apply(c);
+  }
+  return out;
+}
+
+// A tracked frame (ChartFramePlan with a track): the refit's patterns moved
+// with the chart, each element the plan accepts fitted once, the others
+// carried.
+ChartFrameResult measure_tracked(const LoadedImage& image, const ChartMeasureOptions& options,
+                                 const ChartFramePlan& plan) {
+  const ChartTrack& T = *plan.track;
+  const MeasureOptions& mo = options.measure;
+  ChartFrameResult out;
+  out.tracked = true;
+  Measurement& M = out.measurement.measurement;
+  start_measurement(image, M);
+  Stopwatch t;
+  std::vector<SampledProfile> anchor_profiles;
+  const chart::MotionFit motion = track_motion(image, T, anchor_profiles);
+  M.stage_seconds.push_back({"track_motion", t.seconds()});
+  if (!motion.ok) {
+    M.problem = "the chart moved too far since the frame before to be tracked: measure this frame from scratch";
+    return out;
+  }
+  out.measurement.detection = moved_detection(T.detection, motion.motion);
+
+  t.restart();
+  std::vector<PatternFrame> frames(T.patterns.size());  // sized once: the jobs point into it
+  std::vector<ElementJob> jobs;
+  std::vector<size_t> index;  // the pattern of each job
+  for (size_t i = 0; i < T.patterns.size(); ++i) {
+    const ChartTrack::Pattern& p = T.patterns[i];
+    const ElementResult& last = T.elements[i];
+    frames[i] = motion.motion.apply(p.frame, last.orientation);
+    if (plan.fit_element && !plan.fit_element(last)) continue;
+    ElementJob job;
+    job.element = ElementResult::of(last.group, last.element, last.orientation, last.lp_per_mm,
+                                    0.5 / last.lp_per_mm * frames[i].px_per_mm);
+    job.placements.push_back({&frames[i], p.artwork.get(), p.strip});
+    job.sampling = p.sampling;
+    job.complement_ideal = T.detection.light_bars;
+    // Where the refit's fit centred the pattern in this frame (the profile
+    // is sampled on the frame as the refit sampled it: the fit depends a
+    // little on where the bins and the window fall).
+    if (p.fit_shift_mm != 0)
+      job.prepare = [shift_mm = p.fit_shift_mm](const ProfileData& d, const ProfileFitOptions&) {
+        return chart::shifted_ideal(d, shift_mm);
+      };
+    jobs.push_back(std::move(job));
+    index.push_back(i);
+  }
+  const auto profiles = sample_jobs(image.luminance, jobs, image.saturation_level);
+  M.stage_seconds.push_back({"frames", t.seconds()});
+
+  M.reference = T.reference;
+  std::vector<const SampledProfile*> pool;
+  for (const SampledProfile& sp : anchor_profiles) pool.push_back(&sp);
+  // Fitting every element pools the coarse ones' noise as a refit does;
+  // fitting a few near the limit takes the anchors' coarse strips instead.
+  const GradingContext context{M.reference, mo, false, plan.fit_element ? &pool : nullptr};
+  std::vector<ElementResult> fitted;
+  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, context, fitted)});
+  M.elements = T.elements;
+  for (size_t k = 0; k < fitted.size(); ++k) M.elements[index[k]] = fitted[k];
+  M.nyquist_h_lp_per_mm = 0.5 * frames[0].px_per_mm;
+  M.nyquist_v_lp_per_mm = 0.5 * frames[1].px_per_mm;
+
+  ChartTrack next = T;
+  next.motion = motion.motion;
+  next.elements = M.elements;
+  decide_chart(T.detection, mo, M);
+  if (M.usable && ((M.horizontal.beyond_finest && !T.refit_beyond_finest_h) ||
+                   (M.vertical.beyond_finest && !T.refit_beyond_finest_v))) {
+    M.usable = false;
+    M.problem = "the limit runs past the finest element the chart's detection found: detect the chart again";
+  }
+  if (M.usable) out.track = std::move(next);
+  return out;
+}
+
+// measure_chart_detected, and the track a live sequence carries from it
+// when `track` is given.
+ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detection,
+                                  const ChartMeasureOptions& options, std::optional<ChartTrack>* track) {
+  options.validate();
+  const MeasureOptions& mo = options.measure;
+  ChartMeasurement out;
+  out.detection = std::move(detection);
+  Measurement& M = out.measurement;
+  start_measurement(image, M);
+  const cv::Mat& lum = image.luminance;
+  const ChartDetection& D = out.detection;
+  if (!D.found) {
+    M.problem = D.problem;
+    return out;
+  }
+
+  Stopwatch t;
+  std::vector<PatternRef> refs;
+  for (const ChartElement& e : D.elements) {
+    const double f = usaf_lp_per_mm(e.group, e.element);
+    refs.push_back({e.h, BarOrientation::horizontal_bars, e.group, e.element, f});
+    refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f});
+  }
+  chart::PlacementStore store(lum, D, image.saturation_level);
+  ShiftLog shifts;
+  const std::vector<PatternFrame> frames = pattern_frames(D, refs, store, mo);
+  const std::vector<ElementJob> jobs = pattern_jobs(D, refs, frames, store, mo, &shifts);
+  const auto profiles = sample_jobs(lum, jobs, image.saturation_level);
+  M.stage_seconds.push_back({"frames", t.seconds()});
+
+  t.restart();
+  const bool scaled = chart_level_steps(D, refs, jobs, profiles, mo, M.reference);
+  M.stage_seconds.push_back({"reference_patch", t.seconds()});
+  if (!scaled) {
+    M.problem =
+        "the chart's level step cannot be measured: no element in full view has 3 or more pixels per bar with "
+        "visible bars; frame a coarser group or bring the chart into focus";
+    return out;
+  }
+  // Nyquist at the chart plane, from the largest element's scale.
+  M.nyquist_h_lp_per_mm = 0.5 * frames[0].px_per_mm;
+  M.nyquist_v_lp_per_mm = 0.5 * frames[1].px_per_mm;
+
+  std::vector<size_t> graded;
+  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false}, M.elements, &graded)});
+  if (track) *track = make_track(image, D, refs, jobs, profiles, graded, shifts, store, M);
+  decide_chart(D, mo, M);
+  if (track && M.usable) {
+    (*track)->refit_beyond_finest_h = M.horizontal.beyond_finest;
+    (*track)->refit_beyond_finest_v = M.vertical.beyond_finest;
+  }
+  if (track && !M.usable) track->reset();
+  return out;
+}
+
+}  // namespace
+
+PatternFrame ChartMotion::apply(const PatternFrame& f, BarOrientation bars) const {
+  const Vec2 moved = apply_linear(chart::across_dir(f, bars));
+  const double stretch = norm(moved);
+  const Vec2 u = (1.0 / stretch) * moved;
+  PatternFrame out = f;
+  out.center_px = apply(f.center_px);
+  out.px_per_mm = f.px_per_mm * stretch;
+  // across_dir(out, bars) == u: x_dir itself for vertical bars; for
+  // horizontal bars x_dir is u turned so that y_dir() is u.
+  out.x_dir = bars == BarOrientation::vertical_bars ? u : Vec2{u.y, -u.x};
+  return out;
+}
+
+namespace {
+
+// detect_chart, then measure_detected; its time first among the stages.
+ChartMeasurement detect_and_measure(const LoadedImage& image, const ChartMeasureOptions& options,
+                                    std::optional<ChartTrack>* track) {
+  options.validate();
+  Stopwatch t;
+  ChartDetection detection = detect_chart(image.luminance, options.detect);
+  const double detect_seconds = t.seconds();
+  ChartMeasurement out = measure_detected(image, std::move(detection), options, track);
+  out.measurement.stage_seconds.insert(out.measurement.stage_seconds.begin(), {"detect_chart", detect_seconds});
+  return out;
+}
+
+}  // namespace
+
+ChartMeasurement measure_chart(const LoadedImage& image, const ChartMeasureOptions& options) {
+  return detect_and_measure(image, options, nullptr);
+}
+
+ChartMeasurement measure_chart_detected(const LoadedImage& image, ChartDetection detection,
+                                        const ChartMeasureOptions& options) {
+  return measure_detected(image, std::move(detection), options, nullptr);
+}
+
+ChartFrameResult measure_chart_frame(const LoadedImage& image, const ChartMeasureOptions& options,
+                                     const ChartFramePlan& plan) {
+  if (plan.track) {
+    options.validate();
+    return measure_tracked(image, options, plan);
+  }
+  ChartFrameResult out;
+  out.measurement = detect_and_measure(image, options, &out.track);
   return out;
 }
 

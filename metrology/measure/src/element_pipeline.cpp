@@ -34,12 +34,16 @@ constexpr double kNoisePoolPxPerBar = 4.0;
 // are rarely flat (its bars' own slope inflates the scatter, up to 2x on
 // simulated captures), so the coarse elements' models are pooled: each ok
 // element's noise is the median of their predictions at its own mean level.
-// Then its CNR (profiles/detectability.h).
-void pool_noise(std::vector<ElementResult>& elements, size_t first, const std::vector<const SampledProfile*>& strips) {
+// Then its CNR (profiles/detectability.h). `given_pool`, when not empty,
+// replaces the coarse strips (GradingContext::noise_pool).
+void pool_noise(std::vector<ElementResult>& elements, size_t first, const std::vector<const SampledProfile*>& strips,
+                const std::vector<const SampledProfile*>* given_pool) {
   std::vector<const SampledProfile*> pool;
-  for (size_t i = first; i < elements.size(); ++i)
-    if (elements[i].status == ElementStatus::ok && elements[i].px_per_bar >= kNoisePoolPxPerBar)
-      pool.push_back(strips[i - first]);
+  if (given_pool) pool = *given_pool;
+  if (pool.empty())
+    for (size_t i = first; i < elements.size(); ++i)
+      if (elements[i].status == ElementStatus::ok && elements[i].px_per_bar >= kNoisePoolPxPerBar)
+        pool.push_back(strips[i - first]);
   if (pool.empty())  // a chart photograph of fine groups only
     for (size_t i = first; i < elements.size(); ++i)
       if (elements[i].status == ElementStatus::ok) pool.push_back(strips[i - first]);
@@ -66,13 +70,15 @@ void pool_noise(std::vector<ElementResult>& elements, size_t first, const std::v
 }  // namespace
 
 double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
-                  const GradingContext& context, std::vector<ElementResult>& elements) {
+                  const GradingContext& context, std::vector<ElementResult>& elements,
+                  std::vector<size_t>* graded_placement) {
   const ReferenceResult& ref = context.reference;
   double fit_seconds = 0;
   // Warm start per orientation from the last good fit (coarse to fine).
   std::pair<double, double> last_lsf[2] = {{0, 0}, {0, 0}};
   const size_t first = elements.size();
   std::vector<const SampledProfile*> strips;  // the placement each element was graded on
+  if (graded_placement) graded_placement->assign(jobs.size(), 0);
   for (size_t j = 0; j < jobs.size(); ++j) {
     const ElementJob& job = jobs[j];
     ElementResult r = job.element;
@@ -134,12 +140,13 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
         r = alt;
         warm = alt_warm;
         graded_on = &profiles[j][k];
+        if (graded_placement) (*graded_placement)[j] = k;
       }
     }
     elements.push_back(r);
     strips.push_back(graded_on);
   }
-  pool_noise(elements, first, strips);
+  pool_noise(elements, first, strips, context.noise_pool);
   return fit_seconds;
 }
 

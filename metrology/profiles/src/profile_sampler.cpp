@@ -142,16 +142,20 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
     bu.at<double>(k) = uv[k].x;
     bv.at<double>(k) = uv[k].y;
   }
-  cv::Mat cu, cv_;
-  cv::solve(A, bu, cu, cv::DECOMP_QR);
-  cv::solve(A, bv, cv_, cv::DECOMP_QR);
+  cv::Mat cu_mat, cv_mat;
+  cv::solve(A, bu, cu_mat, cv::DECOMP_QR);
+  cv::solve(A, bv, cv_mat, cv::DECOMP_QR);
+  // Plain arrays: map_uv runs for every pixel of the strip's box, where
+  // cv::Mat's checked element access cost more than the map itself.
+  double cu[6], cv_[6];
+  for (int c = 0; c < 6; ++c) cu[c] = cu_mat.at<double>(c), cv_[c] = cv_mat.at<double>(c);
   auto map_uv = [&](double X, double Y) {
     const double x = X - pc.x, y = Y - pc.y;
     const double r[6] = {1, x, y, x * x, x * y, y * y};
     double u = 0, v = 0;
     for (int c = 0; c < 6; ++c) {
-      u += cu.at<double>(c) * r[c];
-      v += cv_.at<double>(c) * r[c];
+      u += cu[c] * r[c];
+      v += cv_[c] * r[c];
     }
     return Vec2{u, v};
   };

@@ -14,10 +14,16 @@
 //  - `near_limit`: only the elements within `near_limit_span` elements of
 //    the limit are fitted; the others keep their last fitted result, and
 //    every frame that refits the patch fits all of them.
-// Chart mode: the frame before's detection is measured again (each
-// pattern's frame is refined on its own profile); the chart is detected
-// again every `refit_every` frames, on a change of light, and whenever the
-// carried detection does not give a usable measurement.
+// Chart mode (chart_measure.h, ChartTrack): a tracked frame moves the
+// patterns of the last frame measured from scratch with the chart (the
+// coarse patterns' profiles, matched with theirs on that frame, give its
+// motion), keeps that frame's level steps and fits each element once;
+// `near_limit` fits only the elements within `near_limit_span` of the last
+// limit (and the watched one) and carries the others. The chart is
+// detected and measured from scratch every `refit_every` frames, on a
+// change of light, and whenever the tracked frame is not usable (the chart
+// moved too far, the limit ran past the finest element detected, or
+// nothing is resolved).
 
 #include <optional>
 #include <string>
@@ -52,8 +58,8 @@ struct LiveFrameResult {
   std::string problem;         // why not
   Measurement measurement;
   bool relative = false;       // chart mode, group unknown
-  bool tracked = false;        // found near the frame before (layout) / its detection carried (chart)
-  bool refit = false;          // reference patch fitted / chart detected on this frame
+  bool tracked = false;        // found near the frame before (layout) / moved with the chart from it (chart)
+  bool refit = false;          // reference patch fitted / chart detected and measured from scratch on this frame
   double analysis_ms = 0;      // wall clock of the measurement, decode excluded
 };
 
@@ -70,14 +76,19 @@ class LiveMeasurer {
   LiveFrameResult measure_layout(const LoadedImage& image, bool refit);
   LiveFrameResult measure_chart_frame(const LoadedImage& image, bool refit);
   FramePlan plan_for(bool refit) const;
+  ChartFramePlan chart_plan_for(bool refit) const;
+  // Whether a near-limit frame fits this element: the watched one
+  // (always_fit), or one within `near_limit_span` elements of the last
+  // limit in its orientation.
+  bool fit_near_limit(int group, int element, double lp_per_mm, BarOrientation o, double coarsest_lp_per_mm) const;
 
   LiveOptions options_;
   const TargetLayout* layout_;
   const CameraModel* camera_;
   std::optional<LayoutTrack> track_;
-  std::optional<ChartDetection> chart_track_;
+  std::optional<ChartTrack> chart_track_;
   std::vector<ElementResult> last_elements_;  // all elements of the last usable layout frame
-  Limit last_h_, last_v_;
+  Limit last_h_, last_v_;                     // of the last usable frame, either mode
   std::optional<std::pair<int, int>> always_h_, always_v_;
   int frames_since_refit_ = 0;
   double level_at_refit_ = 0;
@@ -87,7 +98,7 @@ class LiveMeasurer {
 // light level, cheap enough for every frame.
 double frame_level(const cv::Mat& luminance);
 
-// Where layout element `e` stands from `limit` in elements (1/6 octave),
+// Where an element of `lp_per_mm` stands from `limit` in elements (1/6 octave),
 // for the near-limit choice. With nothing resolved, counted from the
 // coarsest element's frequency.
 double elements_from_limit(double lp_per_mm, const Limit& limit, double coarsest_lp_per_mm);

@@ -59,14 +59,21 @@ struct GradingContext {
   const ReferenceResult& reference;  // signature and the level step per orientation
   const MeasureOptions& options;
   bool model_mismatch = false;       // a global mismatch (wrong encoding): no element is called aliased
+  // The strips whose noise models give every element its per-pixel noise
+  // (the CNR). Null: the coarse ok strips among the jobs, as always; a live
+  // frame that fits only the elements near the limit passes coarse strips
+  // it sampled anyway, since its jobs may hold none.
+  const std::vector<const SampledProfile*>* noise_pool = nullptr;
 };
 
 // Grades every job from its sampled placements (sample_jobs) into
 // `elements`, in job order, warm-starting each orientation's fit from the
 // previous good one (jobs run coarse to fine). An orientation whose level
 // step is not usable is graded low_signal with a note. Returns the seconds
-// spent fitting.
+// spent fitting. `graded_placement`, when given, receives per job the index
+// of the placement it was graded on.
 double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
-                  const GradingContext& context, std::vector<ElementResult>& elements);
+                  const GradingContext& context, std::vector<ElementResult>& elements,
+                  std::vector<size_t>* graded_placement = nullptr);
 
 }  // namespace tactres
