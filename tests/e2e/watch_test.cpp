@@ -208,7 +208,7 @@ TEST_CASE("watch: a lossless video of the sweep names the same best frame") {
   for (const auto& row : rows) CHECK(row.at("status") == "ok");
 }
 
-TEST_CASE("watch: the target drops out for a few frames and a file is truncated; the sequence goes on and recovers") {
+TEST_CASE("watch: the target drops out for a few frames and a file is truncated: the sequence goes on and recovers") {
   const Sequence& s = sweep();
   TempDir out("watch-dropout");
   const fs::path frames = out.path / "frames";
