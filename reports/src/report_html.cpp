@@ -214,19 +214,29 @@ std::string cards(const Comparison& c) {
                         num(c.nyquist_h_lp_per_mm, 2),
                         num(c.nyquist_v_lp_per_mm, 2))
           : std::string("not available"));
-  const DesignRow* best = nullptr;
+  // Rank 1 may be shared (designs within 2 combined sigma of each other):
+  // the card then names them all, so it never crowns one the data cannot.
+  std::vector<const DesignRow*> first;
   int failed = 0;
   for (const DesignRow& r : c.designs) {
-    if (r.rank && *r.rank == 1 && !best) best = &r;
+    if (r.rank && *r.rank == 1) first.push_back(&r);
     if (r.status == RowStatus::failed) ++failed;
   }
-  if (best)
+  if (first.size() == 1) {
+    const DesignRow* best = first.front();
     s += fmt::format(
         "<div class=\"card\"><div class=\"k\">Best design</div><div class=\"val\">{} <small>{} lp/mm</small></div>"
         "<div class=\"detail\">mean of H and V{}</div></div>\n",
         esc(best->design), num(*best->mean_hv_lp_per_mm, 2),
         best->mean_pct_of_reference ? fmt::format(", {:.1f} % of raw CMOS", *best->mean_pct_of_reference) : "");
-  else
+  } else if (first.size() > 1) {
+    std::vector<std::string> names;
+    for (const DesignRow* r : first) names.push_back(esc(r->design));
+    s += fmt::format(
+        "<div class=\"card\"><div class=\"k\">Best design</div><div class=\"val\">{} tie</div>"
+        "<div class=\"detail\">at rank 1, within 2 combined sigma of each other: {}</div></div>\n",
+        first.size(), fmt::join(names, ", "));
+  } else
     s += "<div class=\"card\"><div class=\"k\">Best design</div><div class=\"val\">none ranked</div></div>\n";
   s += light_card(c);
   s += fmt::format(

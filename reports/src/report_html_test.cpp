@@ -251,5 +251,17 @@ TEST_CASE("the HTML page with measurement/1: n/a for detectability, no empty CNR
   CHECK(html.find("\"detectability_k\":null") != std::string::npos);
 }
 
+TEST_CASE("the best-design card names one design, or every design that shares rank 1") {
+  Page p;
+  std::string html = render_html_report(p.comparison, p.options);
+  CHECK(html.find("Best design</div><div class=\"val\">T&lt;1&gt; <small>5.50 lp/mm") != std::string::npos);
+  // Two designs the measurements cannot tell apart: the card crowns neither.
+  for (DesignRow& r : p.comparison.designs)
+    if (r.rank) r.rank = 1;
+  html = render_html_report(p.comparison, p.options);
+  CHECK(html.find("Best design</div><div class=\"val\">2 tie</div>") != std::string::npos);
+  CHECK(html.find("within 2 combined sigma of each other: T&lt;1&gt;, T2") != std::string::npos);
+}
+
 }  // namespace
 }  // namespace tactres
