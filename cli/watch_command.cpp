@@ -126,14 +126,6 @@ CameraSettings camera_settings(const Args& a) {
   return c;
 }
 
-std::string limit_cell(const LiveFrameResult& r, BarOrientation o) {
-  if (!r.measured) return "-";
-  const Limit& l = r.measurement.parts(o).reported();
-  if (!l.any_resolved) return "none resolved";
-  return fmt::format("G{}E{} {:.2f}{}", l.group, l.element, l.interpolated_lp_per_mm.value_or(l.lp_per_mm),
-                     r.relative ? "x" : " lp/mm");
-}
-
 // What the person at the terminal sees, one refreshing line per orientation.
 struct StatusLines {
   bool tty = isatty(fileno(stderr));
@@ -155,7 +147,7 @@ struct StatusLines {
     const std::string focus = f.present ? fmt::format("m(G{}E{}) {:.3f}", f.group, f.element, f.m) : "m -";
     const std::string best = hist.best() ? fmt::format("best {:.3f} @ {}", *hist.best(), hist.best_frame()) : "";
     fmt::print(stderr, "\r\033[K{} frame {:>5} {:>6.1f} ms  {:<28} {:<18} {} {}\n", name, r.index, r.analysis_ms,
-               r.measured ? limit_cell(r, o) : r.problem.substr(0, 28), focus, hist.sparkline(), best);
+               r.measured ? limit_label(r, o) : r.problem.substr(0, 28), focus, hist.sparkline(), best);
   }
 };
 
@@ -242,8 +234,8 @@ int run_watch(const Args& a) {
     return kExitUnusableInput;
   }
   fmt::print("best frame: {} ({}): H {}; V {}\n", best.frame.index, best.frame.name,
-             limit_cell(best.frame, BarOrientation::horizontal_bars),
-             limit_cell(best.frame, BarOrientation::vertical_bars));
+             limit_label(best.frame, BarOrientation::horizontal_bars),
+             limit_label(best.frame, BarOrientation::vertical_bars));
   return kExitOk;
 }
 

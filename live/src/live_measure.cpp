@@ -35,6 +35,14 @@ double frame_level(const cv::Mat& luminance) {
   return n > 0 ? sum / n : 0;
 }
 
+std::string limit_label(const LiveFrameResult& r, BarOrientation o) {
+  if (!r.measured) return "-";
+  const Limit& l = r.measurement.parts(o).reported();
+  if (!l.any_resolved) return "none resolved";
+  return fmt::format("G{}E{} {:.2f}{}", l.group, l.element, l.interpolated_lp_per_mm.value_or(l.lp_per_mm),
+                     r.relative ? "x" : " lp/mm");
+}
+
 double elements_from_limit(double lp_per_mm, const Limit& limit, double coarsest_lp_per_mm) {
   const double at = limit.any_resolved ? limit.lp_per_mm : coarsest_lp_per_mm;
   return 6 * std::log2(lp_per_mm / at);

@@ -30,17 +30,8 @@ namespace {
 void draw_orientation(cv::Mat& img, int row, const char* name, const LiveFrameResult& r, BarOrientation o,
                       const FocusReading& f) {
   const int y = 28 + 34 * row;
-  std::string text = fmt::format("{} ", name);
-  if (r.measured) {
-    const Limit& l = r.measurement.parts(o).reported();
-    text += l.any_resolved ? fmt::format("G{}E{} {:.2f}", l.group, l.element,
-                                         l.interpolated_lp_per_mm.value_or(l.lp_per_mm))
-                           : std::string("none resolved");
-    text += r.relative ? " x largest" : " lp/mm";
-    if (f.present) text += fmt::format("   m(G{}E{}) {:.3f}", f.group, f.element, f.m);
-  } else {
-    text += "-";
-  }
+  std::string text = fmt::format("{} {}", name, limit_label(r, o));
+  if (r.measured && f.present) text += fmt::format("   m(G{}E{}) {:.3f}", f.group, f.element, f.m);
   cv::putText(img, text, {10, y}, cv::FONT_HERSHEY_SIMPLEX, 0.7, {0, 0, 0}, 4, cv::LINE_AA);
   cv::putText(img, text, {10, y}, cv::FONT_HERSHEY_SIMPLEX, 0.7, {255, 255, 255}, 1, cv::LINE_AA);
   const int x0 = img.cols - 220, width = 200;

@@ -4,6 +4,7 @@
 #include "tactres/measure/reference_patch.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <tuple>
@@ -67,17 +68,31 @@ std::vector<DiscObservation> observations_of(const TargetLayout& layout, const F
   return discs;
 }
 
+// The box around the found discs (x0, y0, x1, y1), px.
+std::array<double, 4> disc_box(const FiducialSearchResult& found) {
+  std::array<double, 4> box{1e300, 1e300, -1e300, -1e300};
+  for (const FiducialDetection& d : found.discs) {
+    const double r = std::sqrt(std::max(d.area_px, 0.0) / 3.14159265358979);
+    box[0] = std::min(box[0], d.centroid_px.x - r);
+    box[1] = std::min(box[1], d.centroid_px.y - r);
+    box[2] = std::max(box[2], d.centroid_px.x + r);
+    box[3] = std::max(box[3], d.centroid_px.y + r);
+  }
+  return box;
+}
+
 // The fiducials searched only near where the frame before saw them: the
 // track's box grown by `margin` of its size on every side, as a view into
 // the image (no copy). Coordinates come back in the whole image's pixels.
 FiducialSearchResult find_near_track(const cv::Mat& detection_image, const TargetLayout& layout,
                                      const LayoutTrack& track, double margin, bool coarse_only) {
-  const double w = track.box_px[2] - track.box_px[0], h = track.box_px[3] - track.box_px[1];
+  const std::array<double, 4> box = disc_box(track.fiducials);
+  const double w = box[2] - box[0], h = box[3] - box[1];
   const double grow = margin * std::max(w, h);
-  const int x0 = std::clamp(int(std::floor(track.box_px[0] - grow)), 0, detection_image.cols - 1);
-  const int y0 = std::clamp(int(std::floor(track.box_px[1] - grow)), 0, detection_image.rows - 1);
-  const int x1 = std::clamp(int(std::ceil(track.box_px[2] + grow)) + 1, x0 + 1, detection_image.cols);
-  const int y1 = std::clamp(int(std::ceil(track.box_px[3] + grow)) + 1, y0 + 1, detection_image.rows);
+  const int x0 = std::clamp(int(std::floor(box[0] - grow)), 0, detection_image.cols - 1);
+  const int y0 = std::clamp(int(std::floor(box[1] - grow)), 0, detection_image.rows - 1);
+  const int x1 = std::clamp(int(std::ceil(box[2] + grow)) + 1, x0 + 1, detection_image.cols);
+  const int y1 = std::clamp(int(std::ceil(box[3] + grow)) + 1, y0 + 1, detection_image.rows);
   FiducialSearchOptions o;
   o.coarse_only = coarse_only && std::min(x1 - x0, y1 - y0) >= 400;
   FiducialSearchResult r = find_fiducials(detection_image(cv::Rect(x0, y0, x1 - x0, y1 - y0)), layout, o);
@@ -91,18 +106,6 @@ FiducialSearchResult find_near_track(const cv::Mat& detection_image, const Targe
   return r;
 }
 
-// The box around the found discs, for the next frame's search.
-void disc_box(const FiducialSearchResult& found, double box_px[4]) {
-  box_px[0] = box_px[1] = 1e300;
-  box_px[2] = box_px[3] = -1e300;
-  for (const FiducialDetection& d : found.discs) {
-    const double r = std::sqrt(std::max(d.area_px, 0.0) / 3.14159265358979);
-    box_px[0] = std::min(box_px[0], d.centroid_px.x - r);
-    box_px[1] = std::min(box_px[1], d.centroid_px.y - r);
-    box_px[2] = std::max(box_px[2], d.centroid_px.x + r);
-    box_px[3] = std::max(box_px[3], d.centroid_px.y + r);
-  }
-}
 
 // Finds the fiducials into M.fiducials. A strongly distorting lens bends
 // the disc pattern away from a plane homography. With a lens model, a
@@ -415,7 +418,6 @@ FrameResult measure_frame(const LoadedImage& image, const TargetLayout& layout, 
   next.fitted_camera = located.fitted;
   next.fiducials = M.fiducials;
   next.pose_rms_px = M.pose.rms_px;
-  disc_box(M.fiducials, next.box_px);
   next.reference = M.reference;
   next.transfer = M.transfer;
   next.transfer_check = M.transfer_check;

@@ -94,6 +94,11 @@ class LiveMeasurer {
   double level_at_refit_ = 0;
 };
 
+// A frame's reported limit for people: "G2E4 5.69 lp/mm" (interpolated
+// where there is one; "x" the largest element's frequency when the chart's
+// group is unknown), "none resolved", or "-" for a frame not measured.
+std::string limit_label(const LiveFrameResult& r, BarOrientation o);
+
 // The mean of the finite pixels on a grid of every 8th pixel: the frame's
 // light level, cheap enough for every frame.
 double frame_level(const cv::Mat& luminance);

@@ -30,8 +30,6 @@ struct LayoutTrack {
   std::optional<CameraModel> fitted_camera;  // the pinhole fitted when no model is given
   FiducialSearchResult fiducials;  // the discs as found
   double pose_rms_px = 0;          // of the pose fit on them
-  // The discs' bounding box in the image, px (x0, y0, x1, y1).
-  double box_px[4] = {0, 0, 0, 0};
   // The reference patch and the pixel decoding it chose (fit_reference).
   ReferenceResult reference;
   TransferDecision transfer;
