@@ -146,6 +146,10 @@ std::string bench_table_text(const BenchResult& r) {
       out += fmt::format("{:<36} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.1f}\n", s.setting,
                          s.locate_fiducials_ms, s.pose_ms, s.reference_patch_ms, s.profiles_ms, s.fits_ms,
                          s.decide_ms, s.other_ms);
+  if (!r.live.empty()) {
+    out += "\n";
+    out += live_bench_table_text(r.live);
+  }
   out += fmt::format("\nrender {:.0f} s (multi-threaded), measure + decode {:.0f} s (single-threaded), wall {:.0f} s\n",
                      r.render_seconds, r.measure_seconds, r.wall_seconds);
   return out;
@@ -158,6 +162,7 @@ void write_bench_outputs(const BenchResult& result, const fs::path& dir, const H
   write_file_atomically(dir / "bench.csv", bench_csv(result.rows));
   write_file_atomically(dir / "bench_summary.csv", bench_summary_csv(result));
   write_file_atomically(dir / "bench.html", page);
+  if (!result.live.empty()) write_file_atomically(dir / "live.csv", live_bench_csv(result.live));
 }
 
 }  // namespace tactres

@@ -383,6 +383,13 @@ BenchResult run_bench(const BenchOptions& options, const std::function<void(cons
     result.decode_ms_p95 = percentile(decodes.cpu_ms, 0.95);
     result.decode_wall_ms_median = median(decodes.wall_ms);
   }
+  if (options.live && options.scenes.empty() && options.settings.empty()) {
+    LiveBenchOptions lo;
+    lo.frames = options.quick ? 6 : 8;
+    lo.chart = !options.quick;
+    lo.out_dir = options.out_dir;
+    result.live = run_live_bench(lo, progress);
+  }
   result.render_seconds = render_ms_total / 1000;
   result.measure_seconds = measure_ms_total / 1000;
   result.wall_seconds = ms_since(t_start) / 1000;

@@ -63,26 +63,6 @@ ShadingEffect bench_shading() {
   return s;
 }
 
-// A 12-bit sensor whose SNR at `white` (the level of the flat ground) is
-// `snr_db`, with the gain set so that white sits at 80 % of the range, as an
-// auto-exposed camera would. Gain and photon count depend on each other
-// through the quantisation noise, so iterate (converges in a few steps).
-SensorOptions sensor_for_snr(double snr_db_target, double white, std::uint64_t seed) {
-  SensorOptions o;
-  o.bit_depth = 12;
-  o.full_well_e = 40000;
-  o.quantum_efficiency = 0.6;
-  o.read_noise_e = 3;
-  o.dark_signal_e = 0;
-  o.seed = seed;
-  for (int i = 0; i < 8; ++i) {
-    o.photons_at_unity = photons_at_unity_for_snr_db(o, snr_db_target, white);
-    o.gain_dn_per_e = 0.8 * o.max_dn() / (o.quantum_efficiency * o.photons_at_unity * white);
-  }
-  o.validate();
-  return o;
-}
-
 std::string trim_number(double v) { return fmt::format("{:g}", v); }
 
 // Whether the whole target (fiducial discs, reference patch, every element)
@@ -111,6 +91,26 @@ bool target_fits(const Scene& scene, const TargetLayout& layout, const CameraMod
 }
 
 }  // namespace
+
+// A 12-bit sensor whose SNR at `white` (the level of the flat ground) is
+// `snr_db`, with the gain set so that white sits at 80 % of the range, as an
+// auto-exposed camera would. Gain and photon count depend on each other
+// through the quantisation noise, so iterate (converges in a few steps).
+SensorOptions bench_sensor_for_snr(double snr_db_target, double white, std::uint64_t seed) {
+  SensorOptions o;
+  o.bit_depth = 12;
+  o.full_well_e = 40000;
+  o.quantum_efficiency = 0.6;
+  o.read_noise_e = 3;
+  o.dark_signal_e = 0;
+  o.seed = seed;
+  for (int i = 0; i < 8; ++i) {
+    o.photons_at_unity = photons_at_unity_for_snr_db(o, snr_db_target, white);
+    o.gain_dn_per_e = 0.8 * o.max_dn() / (o.quantum_efficiency * o.photons_at_unity * white);
+  }
+  o.validate();
+  return o;
+}
 
 std::vector<BenchScene> bench_suite() { return bench_suite(bench_default_camera()); }
 
@@ -181,7 +181,7 @@ std::vector<BenchScene> bench_suite(const CameraModel& camera) {
         psf.kind = PsfOptions::gaussian;
         psf.sigma_px = b.blur_sigma_px;
         s.effects.emplace_back(psf);
-        if (b.snr_db) s.effects.emplace_back(sensor_for_snr(*b.snr_db, white, splitmix64(1000 + index)));
+        if (b.snr_db) s.effects.emplace_back(bench_sensor_for_snr(*b.snr_db, white, splitmix64(1000 + index)));
         suite.push_back(std::move(b));
       }
   return suite;

@@ -304,3 +304,52 @@ TEST_CASE("bench: a tiny bench writes the documented CSV columns with finite num
   CHECK(html.find("<script src") == std::string::npos);  // self-contained: nothing to fetch
   CHECK(html.find("<link") == std::string::npos);
 }
+
+TEST_CASE("bench: the live figures measure every frame, track after the first, and write a finite live.csv") {
+  testing::TempDir dir("bench-live");
+  LiveBenchOptions o;
+  o.frames = 4;
+  o.chart = false;
+  o.only = "fast, tracked";  // both tracked fast settings
+  o.out_dir = dir.path;
+  std::vector<std::string> progress;
+  const std::vector<LiveBenchRow> rows = run_live_bench(o, [&](const std::string& line) { progress.push_back(line); });
+  REQUIRE(rows.size() == 2);
+  CHECK(progress.size() == 2);
+  for (const LiveBenchRow& r : rows) {
+    CAPTURE(r.setting);
+    CHECK(r.mode == "layout 1280x720");
+    CHECK(r.frames == 4);
+    CHECK(r.measured == 4);
+    CHECK(r.tracked == 3);  // the first frame is searched from scratch
+    CHECK(r.cpu_ms_median > 0);
+    REQUIRE(r.goal_ms);
+    CHECK(*r.goal_ms == 5);
+    CHECK(r.goal_met() == (r.cpu_ms_median <= 5));
+    std::set<std::string> stages;
+    for (const auto& [stage, ms] : r.stage_ms) stages.insert(stage);
+    CHECK(stages.count("fits"));
+    CHECK(stages.count("locate_fiducials"));
+  }
+  CHECK(rows[0].setting == "fast, tracked");
+  CHECK(rows[1].setting == "fast, tracked, near-limit");
+  CHECK(fs::exists(dir.path / "live" / "layout-003.png"));
+
+  const std::vector<std::string> lines = lines_of(live_bench_csv(rows));
+  REQUIRE(lines.size() == 3);
+  CHECK(lines[0] == "mode,setting,frames,measured,tracked,cpu_ms_median,wall_ms_median,goal_ms,goal_met,stages");
+  for (size_t i = 1; i < lines.size(); ++i) {
+    const std::vector<std::string> f = csv_fields(lines[i]);
+    REQUIRE(f.size() == 10);
+    CHECK(f[1] == rows[i - 1].setting);  // the comma in the name is quoted
+    CHECK(std::isfinite(std::stod(f[5])));
+    CHECK(f[8] == (rows[i - 1].goal_met() ? "true" : "false"));
+  }
+  const std::string table = live_bench_table_text(rows);
+  CHECK(table.find("fast, tracked, near-limit") != std::string::npos);
+  CHECK(table.find("nan") == std::string::npos);
+
+  LiveBenchOptions bad = o;
+  bad.frames = 2;
+  CHECK_THROWS_AS(bad.validate(), std::invalid_argument);
+}

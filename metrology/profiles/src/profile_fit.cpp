@@ -1,6 +1,7 @@
 #include "tactres/profiles/profile_fit.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <numbers>
@@ -44,7 +45,8 @@ class GridModel {
       for (int k = 1; k <= half; ++k) {
         z0 *= w0;
         z1 *= w1;
-        S[k] += b.level * (z0 - z1) / std::complex<double>(0, kTwoPi * k * dnu);
+        // (z0 - z1) / (2 pi i nu) as a product: a complex division costs several.
+        S[k] += b.level * (z0 - z1) * std::complex<double>(0, -1.0 / (kTwoPi * k * dnu));
       }
     }
     s_re_.resize(half + 1);
@@ -62,27 +64,38 @@ class GridModel {
     }
   }
 
-  // conv = (D S (*) h) on the grid; d_lognu0 and d_beta its derivatives.
-  void evaluate(double log_nu0, double beta, std::vector<double>& conv,
-                std::vector<double>* d_lognu0, std::vector<double>* d_beta) const {
+  // The model on the grid, (D S (*) h)(u_j), and with `derivatives` its
+  // derivatives in log nu0 and beta, into conv(), d_lognu0() and d_beta().
+  // The buffers are reused: a fit evaluates the model 10-20 times, and
+  // allocating them each time cost a tenth of the fit.
+  void evaluate(double log_nu0, double beta, bool derivatives) const {
     const int half = n_fft_ / 2;
-    cv::Mat t(1, n_fft_, CV_64F), tn, tb;
-    if (d_lognu0) tn.create(1, n_fft_, CV_64F);
-    if (d_beta) tb.create(1, n_fft_, CV_64F);
+    spectrum_.create(1, n_fft_, CV_64F);
+    if (derivatives) {
+      spectrum_lognu0_.create(1, n_fft_, CV_64F);
+      spectrum_beta_.create(1, n_fft_, CV_64F);
+    }
     for (int k = 0; k <= half; ++k) {
       // q = (nu / nu0)^beta, through logs: one exp instead of a pow.
       const double log_a = log_nu_[k] - log_nu0;
       const double q = k > 0 ? std::exp(beta * log_a) : 0.0;
       const double T = std::exp(-q);
       // dT/dlog nu0 = T q beta ; dT/dbeta = -T q ln(a)
-      put(t, k, T);
-      if (d_lognu0) put(tn, k, T * q * beta);
-      if (d_beta) put(tb, k, k > 0 ? -T * q * log_a : 0.0);
+      put(spectrum_, k, T);
+      if (derivatives) {
+        put(spectrum_lognu0_, k, T * q * beta);
+        put(spectrum_beta_, k, k > 0 ? -T * q * log_a : 0.0);
+      }
     }
-    inverse(t, conv);
-    if (d_lognu0) inverse(tn, *d_lognu0);
-    if (d_beta) inverse(tb, *d_beta);
+    inverse(spectrum_, conv_);
+    if (derivatives) {
+      inverse(spectrum_lognu0_, d_lognu0_);
+      inverse(spectrum_beta_, d_beta_);
+    }
   }
+  const double* conv() const { return conv_.ptr<double>(0); }
+  const double* d_lognu0() const { return d_lognu0_.ptr<double>(0); }
+  const double* d_beta() const { return d_beta_.ptr<double>(0); }
 
   int grid_size() const { return d_.bin_count; }
 
@@ -99,25 +112,40 @@ class GridModel {
     }
   }
 
-  void inverse(const cv::Mat& ccs, std::vector<double>& out) const {
-    cv::Mat x;
-    cv::dft(ccs, x, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
-    const double* p = x.ptr<double>(0);
-    out.assign(p, p + d_.bin_count);
+  // The first bin_count values of the inverse DFT are the grid; the rest is padding.
+  void inverse(const cv::Mat& ccs, cv::Mat& out) const {
+    cv::dft(ccs, out, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
   }
 
   const ProfileData& d_;
   int n_fft_ = 0;
   std::vector<double> s_re_, s_im_, log_nu_;
+  mutable cv::Mat spectrum_, spectrum_lognu0_, spectrum_beta_, conv_, d_lognu0_, d_beta_;
 };
 
 // One residual per non-empty bin in the fit range, weighted by 1/sigma.
 class ProfileCost final : public ceres::CostFunction {
  public:
   ProfileCost(const ProfileData& d, const GridModel& model, double contrast_slope_per_mm)
-      : d_(d), model_(model), contrast_slope_per_mm_(contrast_slope_per_mm) {
-    for (int i = d.fit_begin; i < d.fit_end; ++i)
-      if (d.count[i] > 0 && std::isfinite(d.value[i])) bins_.push_back(i);
+      : model_(model), contrast_slope_per_mm_(contrast_slope_per_mm) {
+    const int n = model.grid_size();
+    for (int i = d.fit_begin; i < d.fit_end; ++i) {
+      if (!(d.count[i] > 0 && std::isfinite(d.value[i]))) continue;
+      // Cubic (Catmull-Rom) interpolation of the grid model at the bin's
+      // mean u: linear interpolation would attenuate the fundamental by ~1%
+      // at quarter-pixel grid spacing. The weights depend on the data only.
+      Bin b;
+      const double g = (d.u_mean_mm[i] - d.u0_mm) / d.bin_mm - 0.5;
+      // Clamped as a double: casting an out-of-range g to int is UB.
+      b.grid = static_cast<int>(std::clamp(std::floor(g), 1.0, n - 3.0));
+      const double t = std::clamp(g - b.grid, 0.0, 1.0);
+      const double t2 = t * t, t3 = t2 * t;
+      b.weight = {-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1, -1.5 * t3 + 2 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2};
+      b.u_mm = d.u_mean_mm[i];
+      b.value = d.value[i];
+      b.sigma = d.sigma[i];
+      bins_.push_back(b);
+    }
     set_num_residuals(static_cast<int>(bins_.size()));
     mutable_parameter_block_sizes()->push_back(kParamCount);
   }
@@ -126,10 +154,9 @@ class ProfileCost final : public ceres::CostFunction {
   // RMS of (model - data) in image units, unweighted.
   double residual_rms(const double* x) const {
     std::vector<double> r(bins_.size());
-    const double* params[] = {x};
-    Evaluate(params, r.data(), nullptr);
+    evaluate(x, r.data(), nullptr, contrast_slope_per_mm_);
     double ss = 0;
-    for (size_t k = 0; k < r.size(); ++k) ss += std::pow(r[k] * d_.sigma[bins_[k]], 2);
+    for (size_t k = 0; k < r.size(); ++k) ss += std::pow(r[k] * bins_[k].sigma, 2);
     return r.empty() ? 0.0 : std::sqrt(ss / r.size());
   }
 
@@ -143,7 +170,7 @@ class ProfileCost final : public ceres::CostFunction {
     evaluate(x, with.data(), nullptr, contrast_slope_per_mm_);
     evaluate(x0, without.data(), nullptr, 0.0);
     double ss = 0;
-    for (size_t k = 0; k < with.size(); ++k) ss += std::pow((with[k] - without[k]) * d_.sigma[bins_[k]], 2);
+    for (size_t k = 0; k < with.size(); ++k) ss += std::pow((with[k] - without[k]) * bins_[k].sigma, 2);
     return with.empty() ? 0.0 : std::sqrt(ss / with.size());
   }
 
@@ -153,35 +180,33 @@ class ProfileCost final : public ceres::CostFunction {
   }
 
  private:
+  struct Bin {
+    int grid = 1;                   // grid index of the second of four interpolation nodes
+    std::array<double, 4> weight{};  // Catmull-Rom weights of nodes grid-1 .. grid+2
+    double u_mm = 0, value = 0, sigma = 1;
+  };
+
   // The weighted residuals (and their Jacobian, row-major, if `jacobian`),
   // with the contrast x[kContrast] + slope u at u.
   void evaluate(const double* x, double* residuals, double* jacobian, double contrast_slope_per_mm) const {
     const bool want_j = jacobian != nullptr;
-    std::vector<double> conv, dn, db;
-    model_.evaluate(x[kLogNu0], x[kBeta], conv, want_j ? &dn : nullptr, want_j ? &db : nullptr);
-    const int n = model_.grid_size();
+    model_.evaluate(x[kLogNu0], x[kBeta], want_j);
+    const double* conv = model_.conv();
+    const double* dn = want_j ? model_.d_lognu0() : nullptr;
+    const double* db = want_j ? model_.d_beta() : nullptr;
     for (size_t r = 0; r < bins_.size(); ++r) {
-      const int i = bins_[r];
-      // Cubic (Catmull-Rom) interpolation of the grid model at the bin's
-      // mean u: linear interpolation would attenuate the fundamental by ~1%
-      // at quarter-pixel grid spacing.
-      const double g = (d_.u_mean_mm[i] - d_.u0_mm) / d_.bin_mm - 0.5;
-      // Clamped as a double: casting an out-of-range g to int is UB.
-      const int i1 = static_cast<int>(std::clamp(std::floor(g), 1.0, n - 3.0));
-      const double t = std::clamp(g - i1, 0.0, 1.0);
-      const double t2 = t * t, t3 = t2 * t;
-      const double w0 = -0.5 * t3 + t2 - 0.5 * t, w1 = 1.5 * t3 - 2.5 * t2 + 1;
-      const double w2 = -1.5 * t3 + 2 * t2 + 0.5 * t, w3 = 0.5 * t3 - 0.5 * t2;
-      auto at = [&](const std::vector<double>& v) {
-        return w0 * v[i1 - 1] + w1 * v[i1] + w2 * v[i1 + 1] + w3 * v[i1 + 2];
+      const Bin& b = bins_[r];
+      auto at = [&](const double* v) {
+        const double* p = v + b.grid - 1;
+        return b.weight[0] * p[0] + b.weight[1] * p[1] + b.weight[2] * p[2] + b.weight[3] * p[3];
       };
-      const double u = d_.u_mean_mm[i];
+      const double u = b.u_mm;
       const double light = x[kB0] + x[kB1] * u + x[kB2] * u * u;
       const double sig = at(conv);
       const double c = x[kContrast] + contrast_slope_per_mm * u;
       const double model = light * (1 + c * sig);
-      const double w = 1.0 / d_.sigma[i];
-      residuals[r] = (model - d_.value[i]) * w;
+      const double w = 1.0 / b.sigma;
+      residuals[r] = (model - b.value) * w;
       if (want_j) {
         double* J = jacobian + r * kParamCount;
         J[kB0] = (1 + c * sig) * w;
@@ -194,10 +219,9 @@ class ProfileCost final : public ceres::CostFunction {
     }
   }
 
-  const ProfileData& d_;
   const GridModel& model_;
   double contrast_slope_per_mm_;
-  std::vector<int> bins_;
+  std::vector<Bin> bins_;
 };
 
 }  // namespace
@@ -318,7 +342,15 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   }
 
   ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
+  // Six parameters: the normal equations are tiny, and Cholesky on them
+  // costs less than a QR of the tall Jacobian (Ceres scales its columns).
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  // With bounds, Ceres follows every trust-region step with a projected
+  // line search that evaluates the Jacobian again: half of all model
+  // evaluations, for no change in the converged fit (ceres-solver issue
+  // 187 calls it "not terribly effective"). Steps are still projected onto
+  // the bounds.
+  so.max_num_line_search_step_size_iterations = 0;
   so.max_num_iterations = options.max_iterations;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
@@ -336,6 +368,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.residual_rms = cost->residual_rms(x);
   out.signal_rms = cost->signal_rms(x);
 
+  double cov[kParamCount * kParamCount];
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;
   co.null_space_rank = 0;
@@ -346,7 +379,6 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
     out.problem = "the fit is degenerate (no contrast, or the pattern is not in the data)";
     return out;
   }
-  double cov[kParamCount * kParamCount];
   covariance.GetCovarianceBlock(x, x, cov);
   const double scale = std::max(1.0, out.chi2_reduced);
   out.var_log_nu0 = cov[kLogNu0 * kParamCount + kLogNu0] * scale;

@@ -194,6 +194,7 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   }
   const int ix0 = std::max(0, int(std::floor(x0))), ix1 = std::min(W - 1, int(std::ceil(x1)));
   const int iy0 = std::max(0, int(std::floor(y0))), iy1 = std::min(H - 1, int(std::ceil(y1)));
+  samples.reserve(size_t(std::max(0, ix1 - ix0 + 1)) * size_t(std::max(0, iy1 - iy0 + 1)));
   for (int y = iy0; y <= iy1; ++y) {
     const float* row = lum.ptr<float>(y);
     for (int x = ix0; x <= ix1; ++x) {
@@ -268,12 +269,19 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   {
     std::vector<double> bin_v(d.bin_count, 0);
     for (int b : filled) bin_v[b] = sum_v[b] / d.count[b];
-    auto profile_at = [&](double u_mm) {
-      const auto hi = std::lower_bound(filled.begin(), filled.end(), u_mm,
-                                       [&](int b, double u) { return d.u_mean_mm[b] < u; });
-      if (hi == filled.begin()) return d.value[filled.front()];
-      if (hi == filled.end()) return d.value[filled.back()];
-      const int b1 = *hi, b0 = *(hi - 1);
+    // P(u) interpolated between the filled bins around u. A sample sits in
+    // its own bin b, so its neighbours are b's previous and next filled bins
+    // (looked up once per bin, not searched per sample).
+    std::vector<int> prev_filled(d.bin_count, -1), next_filled(d.bin_count, -1);
+    for (size_t k = 0; k < filled.size(); ++k) {
+      if (k > 0) prev_filled[filled[k]] = filled[k - 1];
+      if (k + 1 < filled.size()) next_filled[filled[k]] = filled[k + 1];
+    }
+    auto profile_at = [&](double u_mm, int b) {
+      const int b0 = u_mm >= d.u_mean_mm[b] ? b : prev_filled[b];
+      const int b1 = u_mm >= d.u_mean_mm[b] ? next_filled[b] : b;
+      if (b0 < 0) return d.value[b1];
+      if (b1 < 0) return d.value[b0];
       const double t = (u_mm - d.u_mean_mm[b0]) / (d.u_mean_mm[b1] - d.u_mean_mm[b0]);
       return d.value[b0] + t * (d.value[b1] - d.value[b0]);
     };
@@ -282,7 +290,7 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
     double num = 0, den = 0;
     for (size_t k = 0; k < samples.size(); ++k) {
       const Sample& q = samples[k];
-      const double P = profile_at(q.u_mm);
+      const double P = profile_at(q.u_mm, q.bin);
       xy[k] = {P * (q.v_mm - bin_v[q.bin]), q.value - P};
       num += xy[k].first * xy[k].second;
       den += xy[k].first * xy[k].first;

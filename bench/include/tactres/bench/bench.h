@@ -11,14 +11,17 @@
 // captures: the floor that no analysis can beat.
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "tactres/bench/bench_live.h"
 #include "tactres/camera/camera_model.h"
 #include "tactres/measure/measure.h"
+#include "tactres/simulate/effects/sensor_model.h"
 #include "tactres/simulate/scene.h"
 #include "tactres/reports/report_html.h"
 
@@ -52,6 +55,11 @@ inline constexpr int kBenchSupersampling[] = {1, 2, 3, 4};
 std::vector<BenchScene> bench_suite(const CameraModel& camera);
 std::vector<BenchScene> bench_suite();  // with bench_default_camera()
 
+// A 12-bit sensor whose SNR at `white` (the level of the flat ground) is
+// `snr_db`, with white at 80 % of the range, as an auto-exposed camera
+// would put it.
+SensorOptions bench_sensor_for_snr(double snr_db, double white, std::uint64_t seed);
+
 // A way to measure: a preset, or the balanced preset with one setting changed.
 struct BenchSetting {
   std::string name;    // "fast", "balanced bin_px=0.5", "balanced supersampling=1", ...
@@ -73,6 +81,9 @@ struct BenchOptions {
   std::optional<std::filesystem::path> camera_path;
   std::vector<std::string> scenes;    // only these scene names; empty: the (quick) suite
   std::vector<std::string> settings;  // only these setting names; empty: every setting
+  // Also the live-mode figures (bench_live.h): layout mode in --quick, and
+  // the chart sequence too in a full run. Not with --scene or --setting.
+  bool live = true;
 
   // Throws std::invalid_argument naming an unknown scene or setting.
   void validate() const;
@@ -145,6 +156,7 @@ struct BenchResult {
   double decode_ms_median = 0, decode_ms_mean = 0, decode_ms_p95 = 0, decode_wall_ms_median = 0;
   int decodes = 0;
   double render_seconds = 0, measure_seconds = 0, wall_seconds = 0;
+  std::vector<LiveBenchRow> live;  // empty when not run
 };
 
 // The built-in example wide-angle camera (same intrinsics as
@@ -170,7 +182,7 @@ std::string bench_summary_csv(const BenchResult& result);
 std::string bench_table_text(const BenchResult& result);
 
 // Writes bench.csv, bench_summary.csv and bench.html (bench_html.h) into
-// `dir`, atomically.
+// `dir`, atomically, and live.csv when the live figures were run.
 void write_bench_outputs(const BenchResult& result, const std::filesystem::path& dir,
                          const HtmlReportOptions& html = {});
 
