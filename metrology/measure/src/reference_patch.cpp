@@ -19,6 +19,8 @@ namespace {
 // a profile model's own small errors (relief through a gel) never move that
 // much with the encoding.
 constexpr double kMuchBetterFactor = 4.0;
+// A reduced chi^2 this close to 1 is a fit as good as the noise allows.
+constexpr double kWithinNoiseChi2 = 2.0;
 
 double worse_chi2(const ReferenceResult& r) {
   return std::max(r.vertical_bars.chi2_reduced, r.horizontal_bars.chi2_reduced);
@@ -66,6 +68,13 @@ ReferenceResult fit_reference_patch(const cv::Mat& lum, const PatchScene& scene,
     auto choose = [&](const ProfileData& first) {
       fo.signature = Signature::albedo;
       ProfileFit albedo = fit_profile(first, fo);
+      // A printed patch that the albedo model fits to within the noise:
+      // the shading model's edge-like signature cannot fit it better, and
+      // its fit (a third of the patch's time) is skipped.
+      if (albedo.usable && albedo.chi2_reduced <= kWithinNoiseChi2) {
+        ref.signature = Signature::albedo;
+        return std::make_pair(albedo, true);
+      }
       fo.signature = Signature::shading;
       ProfileFit shading = fit_profile(first, fo);
       auto cost = [](const ProfileFit& f) { return f.usable ? f.chi2_reduced : 1e300; };

@@ -10,6 +10,7 @@
 #include <ceres/ceres.h>
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
+#include <opencv2/core/hal/hal.hpp>
 
 namespace tactres {
 namespace {
@@ -75,11 +76,17 @@ class GridModel {
       spectrum_lognu0_.create(1, n_fft_, CV_64F);
       spectrum_beta_.create(1, n_fft_, CV_64F);
     }
+    // q grows with nu (beta > 0): past q = 40, T and T q are below 2e-16
+    // of T(0) = 1, beyond what a double adds to it, and are set to zero
+    // without their exponentials (blurred profiles end there early).
+    constexpr double kNegligibleQ = 40;
+    bool negligible = false;
     for (int k = 0; k <= half; ++k) {
       // q = (nu / nu0)^beta, through logs: one exp instead of a pow.
       const double log_a = log_nu_[k] - log_nu0;
-      const double q = k > 0 ? std::exp(beta * log_a) : 0.0;
-      const double T = std::exp(-q);
+      const double q = k == 0 || negligible ? 0.0 : std::exp(beta * log_a);
+      negligible = negligible || q > kNegligibleQ;
+      const double T = k > 0 && negligible ? 0.0 : std::exp(-q);
       // dT/dlog nu0 = T q beta ; dT/dbeta = -T q ln(a)
       put(spectrum_, k, T);
       if (derivatives) {
@@ -112,15 +119,23 @@ class GridModel {
     }
   }
 
-  // The first bin_count values of the inverse DFT are the grid; the rest is padding.
+  // The first bin_count values of the inverse DFT are the grid; the rest is
+  // padding. The transform is planned once per model: cv::dft plans it
+  // again on every call, which was a fifth of the fit.
   void inverse(const cv::Mat& ccs, cv::Mat& out) const {
-    cv::dft(ccs, out, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
+    if (!inverse_dft_)
+      inverse_dft_ = cv::hal::DFT2D::create(n_fft_, 1, CV_64F, 1, 1,
+                                            CV_HAL_DFT_INVERSE | CV_HAL_DFT_SCALE | CV_HAL_DFT_REAL_OUTPUT |
+                                                CV_HAL_DFT_IS_CONTINUOUS);
+    out.create(1, n_fft_, CV_64F);
+    inverse_dft_->apply(ccs.data, ccs.step, out.data, out.step);
   }
 
   const ProfileData& d_;
   int n_fft_ = 0;
   std::vector<double> s_re_, s_im_, log_nu_;
   mutable cv::Mat spectrum_, spectrum_lognu0_, spectrum_beta_, conv_, d_lognu0_, d_beta_;
+  mutable cv::Ptr<cv::hal::DFT2D> inverse_dft_;
 };
 
 // One residual per non-empty bin in the fit range, weighted by 1/sigma.
@@ -368,7 +383,6 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.residual_rms = cost->residual_rms(x);
   out.signal_rms = cost->signal_rms(x);
 
-  double cov[kParamCount * kParamCount];
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;
   co.null_space_rank = 0;
@@ -379,6 +393,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
     out.problem = "the fit is degenerate (no contrast, or the pattern is not in the data)";
     return out;
   }
+  double cov[kParamCount * kParamCount];
   covariance.GetCovarianceBlock(x, x, cov);
   const double scale = std::max(1.0, out.chi2_reduced);
   out.var_log_nu0 = cov[kLogNu0 * kParamCount + kLogNu0] * scale;

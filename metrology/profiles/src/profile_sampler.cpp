@@ -132,28 +132,38 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
     return out;
   }
 
-  // Quadratic map in centred pixel coordinates, fitted by least squares.
+  // Cubic map in centred pixel coordinates scaled to about +-1, fitted by
+  // least squares through the normal equations (10 x 10, u and v at once;
+  // scaled, they are well conditioned). A quadratic left 0.04 px of error
+  // over the reference patch's strip through the example wide-angle lens,
+  // which moved its edges by several noise sigmas (reduced chi^2 4-7).
+  constexpr int kTerms = 10;
   const Vec2 pc = px[n * n / 2];
-  cv::Mat A(n * n, 6, CV_64F), bu(n * n, 1, CV_64F), bv(n * n, 1, CV_64F);
+  double scale_px = 1;
+  for (const Vec2& q : px) scale_px = std::max({scale_px, std::abs(q.x - pc.x), std::abs(q.y - pc.y)});
+  const double inv_scale = 1 / scale_px;
+  auto terms = [](double x, double y, double* r) {
+    const double x2 = x * x, y2 = y * y;
+    const double t[kTerms] = {1, x, y, x2, x * y, y2, x2 * x, x2 * y, x * y2, y2 * y};
+    std::copy(t, t + kTerms, r);
+  };
+  cv::Mat A(n * n, kTerms, CV_64F), b(n * n, 2, CV_64F);
   for (int k = 0; k < n * n; ++k) {
-    const double x = px[k].x - pc.x, y = px[k].y - pc.y;
-    const double row[6] = {1, x, y, x * x, x * y, y * y};
-    for (int c = 0; c < 6; ++c) A.at<double>(k, c) = row[c];
-    bu.at<double>(k) = uv[k].x;
-    bv.at<double>(k) = uv[k].y;
+    terms((px[k].x - pc.x) * inv_scale, (px[k].y - pc.y) * inv_scale, A.ptr<double>(k));
+    b.at<double>(k, 0) = uv[k].x;
+    b.at<double>(k, 1) = uv[k].y;
   }
-  cv::Mat cu_mat, cv_mat;
-  cv::solve(A, bu, cu_mat, cv::DECOMP_QR);
-  cv::solve(A, bv, cv_mat, cv::DECOMP_QR);
-  // Plain arrays: map_uv runs for every pixel of the strip's box, where
-  // cv::Mat's checked element access cost more than the map itself.
-  double cu[6], cv_[6];
-  for (int c = 0; c < 6; ++c) cu[c] = cu_mat.at<double>(c), cv_[c] = cv_mat.at<double>(c);
+  cv::Mat coef;
+  if (!cv::solve(A, b, coef, cv::DECOMP_CHOLESKY | cv::DECOMP_NORMAL))
+    cv::solve(A, b, coef, cv::DECOMP_SVD);  // a lattice seen edge-on: the least-squares answer still
+  // Plain arrays: cv::Mat's checked element access cost more than the map.
+  double cu[kTerms], cv_[kTerms];
+  for (int c = 0; c < kTerms; ++c) cu[c] = coef.at<double>(c, 0), cv_[c] = coef.at<double>(c, 1);
   auto map_uv = [&](double X, double Y) {
-    const double x = X - pc.x, y = Y - pc.y;
-    const double r[6] = {1, x, y, x * x, x * y, y * y};
+    double r[kTerms];
+    terms((X - pc.x) * inv_scale, (Y - pc.y) * inv_scale, r);
     double u = 0, v = 0;
-    for (int c = 0; c < 6; ++c) {
+    for (int c = 0; c < kTerms; ++c) {
       u += cu[c] * r[c];
       v += cv_[c] * r[c];
     }
@@ -195,18 +205,28 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   const int ix0 = std::max(0, int(std::floor(x0))), ix1 = std::min(W - 1, int(std::ceil(x1)));
   const int iy0 = std::max(0, int(std::floor(y0))), iy1 = std::min(H - 1, int(std::ceil(y1)));
   samples.reserve(size_t(std::max(0, ix1 - ix0 + 1)) * size_t(std::max(0, iy1 - iy0 + 1)));
+  const double inv_bin = 1 / d.bin_mm;
+  const float clip_at = static_cast<float>(clip_level * 0.9999);
   for (int y = iy0; y <= iy1; ++y) {
     const float* row = lum.ptr<float>(y);
-    for (int x = ix0; x <= ix1; ++x) {
-      const Vec2 p = map_uv(x, y);
+    // Along a row, u and v are cubics in x: stepped by forward differences
+    // (the third is constant), taken from the map at the row's first four
+    // pixels; evaluating the map per pixel cost more than the rest of the loop.
+    const Vec2 p0 = map_uv(ix0, y), p1 = map_uv(ix0 + 1, y), p2 = map_uv(ix0 + 2, y), p3 = map_uv(ix0 + 3, y);
+    double u = p0.x, v = p0.y;
+    double du = p1.x - p0.x, dv = p1.y - p0.y;
+    double ddu = p2.x - 2 * p1.x + p0.x, ddv = p2.y - 2 * p1.y + p0.y;
+    const double dddu = p3.x - 3 * p2.x + 3 * p1.x - p0.x, dddv = p3.y - 3 * p2.y + 3 * p1.y - p0.y;
+    for (int x = ix0; x <= ix1; ++x, u += du, v += dv, du += ddu, dv += ddv, ddu += dddu, ddv += dddv) {
+      const Vec2 p{u, v};
       if (std::abs(p.x) > U || std::abs(p.y) > V) continue;
       const float value = row[x];
       if (!std::isfinite(value)) {
         ++out.pixels_masked;
         continue;
       }
-      if (clip_level > 0 && (value >= clip_level * 0.9999f || value <= 0.f)) ++out.pixels_clipped;
-      const int b = static_cast<int>(std::floor((p.x - d.u0_mm) / d.bin_mm));
+      if (clip_level > 0 && (value >= clip_at || value <= 0.f)) ++out.pixels_clipped;
+      const int b = static_cast<int>(std::floor((p.x - d.u0_mm) * inv_bin));
       if (b < 0 || b >= d.bin_count) continue;
       sum[b] += value;
       sum2[b] += double(value) * value;
