@@ -7,7 +7,10 @@
 // the lens model in layout mode, never through an undistorted copy)
 // contributes its value at its own u: pixels are binned by u at a fraction
 // of a pixel, which averages along the bars and oversamples the profile the
-// way a slanted edge does. The ideal pattern S(u) of every artwork shape in
+// way a slanted edge does. Strictly, by w, u's distance in pixels divided
+// by the centre's scale (docs/CONVENTIONS.md, "The measurand m(f)"): the
+// blur is the same in pixels everywhere, not in millimetres, and the
+// ProfileData's u coordinates and ideal boxes are in w. The ideal pattern S(u) of every artwork shape in
 // the strip comes from the layout, so neighbours are modelled, not ignored.
 
 #include <array>
