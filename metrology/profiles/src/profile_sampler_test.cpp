@@ -52,3 +52,63 @@ TEST_CASE("a last-bit change of the image scale does not move the profile's bin 
     CHECK(p.data.u0_mm == doctest::Approx(first.data.u0_mm).epsilon(1e-12));
   }
 }
+
+namespace {
+
+// A plane whose image scale across x grows linearly, as through a lens
+// whose magnification changes over the field: x_px = cx + s0 (x + k x^2 / 2).
+struct StretchedPlane final : PlaneToImage {
+  Vec2 center_px{200, 100};
+  double s0_px_per_mm = 30, k_per_mm = 0.06;
+  std::optional<Vec2> project(Vec2 p) const override {
+    return Vec2{center_px.x + s0_px_per_mm * (p.x + 0.5 * k_per_mm * p.x * p.x), center_px.y + s0_px_per_mm * p.y};
+  }
+  double px_per_mm_across(Vec2 p, BarOrientation bars) const override {
+    return bars == BarOrientation::vertical_bars ? s0_px_per_mm * (1 + k_per_mm * p.x) : s0_px_per_mm;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("a wide strip whose image scale changes is binned so that a pixel-space blur fits as one blur") {
+  // A dark 2 mm square (a reference patch) blurred by a Gaussian of 1.5 px:
+  // the same in pixels at both edges, but 12 % wider in mm at the left edge
+  // than at the right one (scale 30 px/mm x (1 -+ 0.06)). Binned in mm, the
+  // profile model's single blur fitted these edges with a reduced chi^2 of
+  // several; binned in pixels over the centre's scale, they fit to the noise,
+  // with the centre's blur.
+  const StretchedPlane plane;
+  const double sigma_px = 1.5, noise = 1e-3;
+  cv::Mat lum(200, 400, CV_32F);
+  cv::RNG rng(11);
+  const double x_left = plane.project({-1, 0})->x, x_right = plane.project({1, 0})->x;
+  auto cdf = [](double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); };
+  for (int y = 0; y < lum.rows; ++y)
+    for (int x = 0; x < lum.cols; ++x) {
+      const double inside = cdf((x_right - x) / sigma_px) - cdf((x_left - x) / sigma_px);
+      lum.at<float>(y, x) = float(0.8 * (1 - 0.7 * inside) + rng.gaussian(noise));
+    }
+  std::vector<ArtworkShape> shapes{{ArtworkShape::Kind::rect, ArtworkShape::Role::patch, {-1, -1, 1, 1}, {}, 0, {}}};
+  const IndexedArtwork artwork(shapes);
+  Strip strip;
+  strip.center_mm = {0, 0};
+  strip.bars = BarOrientation::vertical_bars;
+  strip.half_u_mm = 1.3;
+  strip.half_v_mm = 0.6;
+  strip.extend_u_mm = 0.5;
+  ProfileSamplingOptions so;
+  so.bin_px = 0.5;
+  const SampledProfile p = sample_strip(lum, plane, artwork, strip, so, 0);
+  REQUIRE(p.in_view);
+  ProfileFitOptions fo;
+  fo.fit_contrast = true;
+  fo.fit_shape = false;  // a Gaussian, as the patch is fitted
+  fo.quadratic_background = true;
+  const ProfileFit fit = fit_profile(p.data, fo);
+  REQUIRE(fit.usable);
+  CHECK(fit.chi2_reduced < 1.5);
+  CHECK(fit.contrast == doctest::Approx(-0.7).epsilon(0.01));
+  // T(nu) = exp(-(nu / nu0)^2) for a Gaussian of sd sigma: nu0 = 1 / (sqrt(2) pi sigma), sigma in mm at the centre.
+  const double nu0_true = 1 / (std::sqrt(2.0) * M_PI * sigma_px / plane.s0_px_per_mm);
+  CHECK(fit.nu0_per_mm == doctest::Approx(nu0_true).epsilon(0.02));
+}
