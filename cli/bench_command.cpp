@@ -21,7 +21,7 @@ Command bench_command() {
             auto a = std::make_shared<Args>();
             app.add_flag("--quick", a->quick, "A small subset of the suite (a few minutes at most)");
             app.add_option("--out", a->out,
-                           "Folder for the captures, truth files, bench.csv, bench_summary.csv and bench.html");
+                           "Folder for the captures, truth files, bench.csv, bench_summary.csv, bench.html and live.csv");
             app.add_option("--camera", a->camera,
                            "mrcal .cameramodel to render and measure with (default: the built-in example "
                            "wide-angle camera, examples/cameras/wide_angle.cameramodel)");

@@ -89,6 +89,27 @@ std::string summary_table(const BenchResult& r) {
   return s + "</tbody>\n</table>\n";
 }
 
+// The live-mode figures (bench_live.h): one row per setting, its goal
+// marked met or not.
+std::string live_table(const std::vector<LiveBenchRow>& rows) {
+  std::string s =
+      "<table>\n<thead><tr><th class=\"name\">mode</th><th class=\"name\">setting</th><th>CPU ms / frame<br>"
+      "median</th><th>wall ms / frame<br>median</th><th>goal ms</th><th>frames measured</th><th>tracked</th>"
+      "<th class=\"text\">stages (median wall ms)</th></tr></thead>\n<tbody>\n";
+  for (const LiveBenchRow& r : rows) {
+    std::string stages;
+    for (const auto& [stage, ms] : r.stage_ms) stages += fmt::format("{}{} {:.1f}", stages.empty() ? "" : ", ", stage, ms);
+    const std::string goal =
+        r.goal_ms ? fmt::format("{:g} ({})", *r.goal_ms, r.goal_met() ? "met" : "not met") : "&ndash;";
+    s += fmt::format(
+        "<tr><td class=\"name\">{}</td><td class=\"name\">{}</td><td>{:.1f}</td><td>{:.1f}</td><td>{}</td>"
+        "<td>{}/{}</td><td>{}</td><td class=\"text\">{}</td></tr>\n",
+        html_escape(r.mode), html_escape(r.setting), r.cpu_ms_median, r.wall_ms_median, goal, r.measured, r.frames,
+        r.tracked, html_escape(stages));
+  }
+  return s + "</tbody>\n</table>\n";
+}
+
 // Problems that differ only in their numbers (a chi^2, a count) are one.
 std::string problem_kind(const std::string& problem) {
   std::string out;
@@ -208,8 +229,13 @@ std::string render_bench_html(const BenchResult& r, const HtmlReportOptions& opt
        "</ul>\n</section>\n";
   s += "<section id=\"failures\">\n<h2>Captures that could not be measured</h2>\n" + failures_table(r) +
        "</section>\n";
+  if (!r.live.empty())
+    s += "<section id=\"live\">\n<h2>Live mode (tactres watch)</h2>\n<p class=\"note\">A drifting "
+         "through-focus sequence measured frame by frame, frames in memory, one thread; the median per frame "
+         "after the first. Goals: issue #16's. Also in live.csv.</p>\n<div class=\"scroll\">\n" +
+         live_table(r.live) + "</div>\n</section>\n";
   s += "<footer>\n<p>Every number on this page is in bench.csv (one row per capture, setting and orientation) "
-       "and bench_summary.csv; docs/BENCH.md describes the columns and the suite. Charts: Chart.js (MIT "
+       "and bench_summary.csv (the live figures in live.csv); docs/BENCH.md describes the columns and the suite. Charts: Chart.js (MIT "
        "licence), inlined; the page needs no network.</p>\n</footer>\n";
   return render_html_page(page, chart_js);
 }

@@ -349,6 +349,14 @@ TEST_CASE("bench: the live figures measure every frame, track after the first, a
   CHECK(table.find("fast, tracked, near-limit") != std::string::npos);
   CHECK(table.find("nan") == std::string::npos);
 
+  BenchResult result;
+  result.live = rows;
+  write_bench_outputs(result, dir.path);
+  CHECK(read_file(dir.path / "live.csv") == live_bench_csv(rows));
+  const std::string html = read_file(dir.path / "bench.html");
+  CHECK(html.find("Live mode (tactres watch)") != std::string::npos);
+  CHECK(html.find("fast, tracked, near-limit") != std::string::npos);
+
   LiveBenchOptions bad = o;
   bad.frames = 2;
   CHECK_THROWS_AS(bad.validate(), std::invalid_argument);
