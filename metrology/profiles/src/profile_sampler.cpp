@@ -73,6 +73,57 @@ Vec2 to_target(const Strip& s, double u, double v) {
   return u_along_x(s) ? Vec2{s.center_mm.x + u, s.center_mm.y + v} : Vec2{s.center_mm.x + v, s.center_mm.y + u};
 }
 
+// The map from pixel centres to strip coordinates (u, v) in mm: a cubic in
+// the pixel coordinates, centred on the lattice's middle point and scaled
+// to about +-1, fitted by least squares to the projected lattice through
+// the normal equations (10 x 10, u and v at once; scaled, they are well
+// conditioned). A quadratic left 0.04 px of error over the reference
+// patch's strip through the example wide-angle lens; a cubic 0.001 px.
+class PixelMap {
+ public:
+  PixelMap(const std::vector<Vec2>& px, const std::vector<Vec2>& uv) : center_px_(px[px.size() / 2]) {
+    double scale_px = 1;
+    for (const Vec2& q : px)
+      scale_px = std::max({scale_px, std::abs(q.x - center_px_.x), std::abs(q.y - center_px_.y)});
+    inv_scale_ = 1 / scale_px;
+    const int n = static_cast<int>(px.size());
+    cv::Mat A(n, kTerms, CV_64F), b(n, 2, CV_64F);
+    for (int k = 0; k < n; ++k) {
+      terms(px[k].x, px[k].y, A.ptr<double>(k));
+      b.at<double>(k, 0) = uv[k].x;
+      b.at<double>(k, 1) = uv[k].y;
+    }
+    cv::Mat coef;
+    if (!cv::solve(A, b, coef, cv::DECOMP_CHOLESKY | cv::DECOMP_NORMAL))
+      cv::solve(A, b, coef, cv::DECOMP_SVD);  // a lattice seen edge-on: the least-squares answer still
+    // Plain arrays: cv::Mat's checked element access cost more than the map.
+    for (int c = 0; c < kTerms; ++c) cu_[c] = coef.at<double>(c, 0), cv_[c] = coef.at<double>(c, 1);
+  }
+
+  Vec2 operator()(double x_px, double y_px) const {
+    double r[kTerms];
+    terms(x_px, y_px, r);
+    double u = 0, v = 0;
+    for (int c = 0; c < kTerms; ++c) {
+      u += cu_[c] * r[c];
+      v += cv_[c] * r[c];
+    }
+    return Vec2{u, v};
+  }
+
+ private:
+  static constexpr int kTerms = 10;
+  void terms(double x_px, double y_px, double* r) const {
+    const double x = (x_px - center_px_.x) * inv_scale_, y = (y_px - center_px_.y) * inv_scale_;
+    const double x2 = x * x, y2 = y * y;
+    const double t[kTerms] = {1, x, y, x2, x * y, y2, x2 * x, x2 * y, x * y2, y2 * y};
+    std::copy(t, t + kTerms, r);
+  }
+  Vec2 center_px_;
+  double inv_scale_ = 1;
+  double cu_[kTerms] = {}, cv_[kTerms] = {};
+};
+
 // The chain's blur is shift-invariant in pixels, not in target
 // millimetres: through a distorting lens (or at a tilt) the image scale
 // changes across a wide strip, and an edge's blur measured in u with it.
@@ -157,43 +208,7 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
     return out;
   }
 
-  // Cubic map in centred pixel coordinates scaled to about +-1, fitted by
-  // least squares through the normal equations (10 x 10, u and v at once;
-  // scaled, they are well conditioned). A quadratic left 0.04 px of error
-  // over the reference patch's strip through the example wide-angle lens,
-  // which moved its edges by several noise sigmas (reduced chi^2 4-7).
-  constexpr int kTerms = 10;
-  const Vec2 pc = px[n * n / 2];
-  double scale_px = 1;
-  for (const Vec2& q : px) scale_px = std::max({scale_px, std::abs(q.x - pc.x), std::abs(q.y - pc.y)});
-  const double inv_scale = 1 / scale_px;
-  auto terms = [](double x, double y, double* r) {
-    const double x2 = x * x, y2 = y * y;
-    const double t[kTerms] = {1, x, y, x2, x * y, y2, x2 * x, x2 * y, x * y2, y2 * y};
-    std::copy(t, t + kTerms, r);
-  };
-  cv::Mat A(n * n, kTerms, CV_64F), b(n * n, 2, CV_64F);
-  for (int k = 0; k < n * n; ++k) {
-    terms((px[k].x - pc.x) * inv_scale, (px[k].y - pc.y) * inv_scale, A.ptr<double>(k));
-    b.at<double>(k, 0) = uv[k].x;
-    b.at<double>(k, 1) = uv[k].y;
-  }
-  cv::Mat coef;
-  if (!cv::solve(A, b, coef, cv::DECOMP_CHOLESKY | cv::DECOMP_NORMAL))
-    cv::solve(A, b, coef, cv::DECOMP_SVD);  // a lattice seen edge-on: the least-squares answer still
-  // Plain arrays: cv::Mat's checked element access cost more than the map.
-  double cu[kTerms], cv_[kTerms];
-  for (int c = 0; c < kTerms; ++c) cu[c] = coef.at<double>(c, 0), cv_[c] = coef.at<double>(c, 1);
-  auto map_uv = [&](double X, double Y) {
-    double r[kTerms];
-    terms((X - pc.x) * inv_scale, (Y - pc.y) * inv_scale, r);
-    double u = 0, v = 0;
-    for (int c = 0; c < kTerms; ++c) {
-      u += cu[c] * r[c];
-      v += cv_[c] * r[c];
-    }
-    return Vec2{u, v};
-  };
+  const PixelMap map_uv(px, uv);
   for (int k = 0; k < n * n; ++k)
     out.map_error_px = std::max(out.map_error_px, norm(map_uv(px[k].x, px[k].y) - uv[k]) * out.px_per_mm_across);
 
