@@ -178,6 +178,224 @@ std::vector<IdealBox> ideal_boxes(const IndexedArtwork& artwork, const Strip& s,
   return boxes;
 }
 
+// Per-bin sums of the pixels' values and positions: the bin means, the
+// within-bin spreads the noise models come from, and the moments of a plane
+// in (u, v) per bin. u is w here (ScaleWarp).
+struct BinSums {
+  std::vector<double> sum, sum2, sum_u, sum_uu;
+  // Along-bar moments: the light varies along the bars too (vignetting,
+  // illumination), which is not noise; the noise estimate removes it.
+  std::vector<double> sum_v, sum_vv, sum_xv;
+  std::vector<double> sum_xu, sum_uv;  // for the per-bin plane in (u, v)
+  explicit BinSums(int n)
+      : sum(n), sum2(n), sum_u(n), sum_uu(n), sum_v(n), sum_vv(n), sum_xv(n), sum_xu(n), sum_uv(n) {}
+  void add(int b, double value, double u, double v) {
+    sum[b] += value;
+    sum2[b] += value * value;
+    sum_u[b] += u;
+    sum_uu[b] += u * u;
+    sum_v[b] += v;
+    sum_vv[b] += v * v;
+    sum_xv[b] += value * v;
+    sum_xu[b] += value * u;
+    sum_uv[b] += u * v;
+  }
+};
+
+struct Sample {
+  double u_mm, v_mm, value;
+  int bin;
+};
+
+struct PixelBox {
+  int x0, y0, x1, y1;  // inclusive
+};
+
+// The pixels around the projected lattice, clipped to the image.
+PixelBox pixel_box(const std::vector<Vec2>& px, int W, int H) {
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (const Vec2& q : px) {
+    x0 = std::min(x0, q.x);
+    y0 = std::min(y0, q.y);
+    x1 = std::max(x1, q.x);
+    y1 = std::max(y1, q.y);
+  }
+  return {std::max(0, int(std::floor(x0))), std::max(0, int(std::floor(y0))), std::min(W - 1, int(std::ceil(x1))),
+          std::min(H - 1, int(std::ceil(y1)))};
+}
+
+// Every finite pixel of `box` whose centre maps into the strip goes into its
+// bin (in w) and into `samples`; masked and clipped pixels are counted in `out`.
+void accumulate_pixels(const cv::Mat& lum, const PixelMap& map_uv, const ScaleWarp& warp, const PixelBox& box,
+                       const Strip& s, double clip_level, BinSums& sums, std::vector<Sample>& samples,
+                       SampledProfile& out) {
+  ProfileData& d = out.data;
+  const double U = s.half_u_mm, V = s.half_v_mm;
+  samples.reserve(size_t(std::max(0, box.x1 - box.x0 + 1)) * size_t(std::max(0, box.y1 - box.y0 + 1)));
+  const double inv_bin = 1 / d.bin_mm;
+  const float clip_at = static_cast<float>(clip_level * 0.9999);
+  for (int y = box.y0; y <= box.y1; ++y) {
+    const float* row = lum.ptr<float>(y);
+    // Along a row, u and v are cubics in x: stepped by forward differences
+    // (the third is constant), taken from the map at the row's first four
+    // pixels; evaluating the map per pixel cost more than the rest of the loop.
+    const int x0 = box.x0;
+    const Vec2 p0 = map_uv(x0, y), p1 = map_uv(x0 + 1, y), p2 = map_uv(x0 + 2, y), p3 = map_uv(x0 + 3, y);
+    double u = p0.x, v = p0.y;
+    double du = p1.x - p0.x, dv = p1.y - p0.y;
+    double ddu = p2.x - 2 * p1.x + p0.x, ddv = p2.y - 2 * p1.y + p0.y;
+    const double dddu = p3.x - 3 * p2.x + 3 * p1.x - p0.x, dddv = p3.y - 3 * p2.y + 3 * p1.y - p0.y;
+    for (int x = x0; x <= box.x1; ++x, u += du, v += dv, du += ddu, dv += ddv, ddu += dddu, ddv += dddv) {
+      if (std::abs(u) > U || std::abs(v) > V) continue;
+      const double w = warp(u);  // binned in w (ScaleWarp)
+      const float value = row[x];
+      if (!std::isfinite(value)) {
+        ++out.pixels_masked;
+        continue;
+      }
+      if (clip_level > 0 && (value >= clip_at || value <= 0.f)) ++out.pixels_clipped;
+      const int b = static_cast<int>(std::floor((w - d.u0_mm) * inv_bin));
+      if (b < 0 || b >= d.bin_count) continue;
+      sums.add(b, value, w, v);
+      samples.push_back({w, v, value, b});
+      ++d.count[b];
+      ++out.pixels_used;
+    }
+  }
+}
+
+// Bin means and mean positions (empty bins: NaN at the bin centre), and the
+// spread of the sample positions within the bins. Returns the mean |level|
+// of the filled bins (1 if none).
+double set_bin_means(ProfileData& d, const BinSums& sums, int pixels_used) {
+  d.value.assign(d.bin_count, std::numeric_limits<double>::quiet_NaN());
+  d.u_mean_mm.resize(d.bin_count);
+  d.sigma.assign(d.bin_count, 1.0);
+  double spread = 0, level = 0;
+  int level_n = 0;
+  for (int b = 0; b < d.bin_count; ++b) {
+    d.u_mean_mm[b] = d.bin_center_mm(b);
+    if (d.count[b] == 0) continue;
+    d.value[b] = sums.sum[b] / d.count[b];
+    d.u_mean_mm[b] = sums.sum_u[b] / d.count[b];
+    spread += std::max(0.0, sums.sum_uu[b] - sums.sum_u[b] * sums.sum_u[b] / d.count[b]);
+    level += std::abs(d.value[b]);
+    ++level_n;
+  }
+  d.bin_spread_var_mm2 = pixels_used > 0 ? spread / pixels_used : 0.0;
+  return level_n ? level / level_n : 1.0;
+}
+
+// The filled bins (with at least 3 samples and a neighbour on both sides),
+// flattest first: |change across the neighbours|, bin.
+std::vector<std::pair<double, int>> flattest_first(const ProfileData& d, const std::vector<int>& filled) {
+  std::vector<std::pair<double, int>> flatness;
+  for (size_t k = 1; k + 1 < filled.size(); ++k)
+    if (d.count[filled[k]] >= 3) flatness.push_back({std::abs(d.value[filled[k + 1]] - d.value[filled[k - 1]]), filled[k]});
+  std::sort(flatness.begin(), flatness.end());
+  return flatness;
+}
+
+// Light that varies along the bars (a hot spot, vignetting) is a relative
+// gain 1 + g v over the strip. A bin's pixels need not be centred on
+// v = 0: at a small roll the pixel rows fall into neighbouring bins in
+// different bands of v, and their means would alternate by the gain
+// difference, which no profile model describes. g is regressed from the
+// pixels' departures from the profile P(u), interpolated between bin
+// means: at a roll, u and v correlate within a bin, so a per-bin slope in
+// u could not be told from the gain. Every bin mean is then referred to
+// v = 0.
+void refer_to_mid_strip(ProfileData& d, const BinSums& sums, const std::vector<Sample>& samples,
+                        const std::vector<int>& filled, double half_v_mm) {
+  std::vector<double> bin_v(d.bin_count, 0);
+  for (int b : filled) bin_v[b] = sums.sum_v[b] / d.count[b];
+  // P(u) interpolated between the filled bins around u. A sample sits in
+  // its own bin b, so its neighbours are b's previous and next filled bins
+  // (looked up once per bin, not searched per sample).
+  std::vector<int> prev_filled(d.bin_count, -1), next_filled(d.bin_count, -1);
+  for (size_t k = 0; k < filled.size(); ++k) {
+    if (k > 0) prev_filled[filled[k]] = filled[k - 1];
+    if (k + 1 < filled.size()) next_filled[filled[k]] = filled[k + 1];
+  }
+  auto profile_at = [&](double u_mm, int b) {
+    const int b0 = u_mm >= d.u_mean_mm[b] ? b : prev_filled[b];
+    const int b1 = u_mm >= d.u_mean_mm[b] ? next_filled[b] : b;
+    if (b0 < 0) return d.value[b1];
+    if (b1 < 0) return d.value[b0];
+    const double t = (u_mm - d.u_mean_mm[b0]) / (d.u_mean_mm[b1] - d.u_mean_mm[b0]);
+    return d.value[b0] + t * (d.value[b1] - d.value[b0]);
+  };
+  // Per pixel: the regressor P dv and the departure value - P.
+  std::vector<std::pair<double, double>> xy(samples.size());
+  double num = 0, den = 0;
+  for (size_t k = 0; k < samples.size(); ++k) {
+    const Sample& q = samples[k];
+    const double P = profile_at(q.u_mm, q.bin);
+    xy[k] = {P * (q.v_mm - bin_v[q.bin]), q.value - P};
+    num += xy[k].first * xy[k].second;
+    den += xy[k].first * xy[k].first;
+  }
+  const double g_per_mm = den > 0 ? num / den : 0.0;
+  // Applied only when it matters and is real: interpolating P(u) between
+  // the bins of a fine element leaves errors that a spurious g would
+  // otherwise absorb.
+  double rss = 0;
+  for (const auto& [x, y] : xy) rss += (y - g_per_mm * x) * (y - g_per_mm * x);
+  const double g_sigma = den > 0 && samples.size() > 2 ? std::sqrt(rss / (samples.size() - 2) / den) : 0.0;
+  const bool significant = std::abs(g_per_mm) > 4 * g_sigma && std::abs(g_per_mm) * half_v_mm > 2e-3;
+  if (significant && std::abs(g_per_mm) * half_v_mm < 0.5)
+    for (int b : filled) d.value[b] /= 1.0 + g_per_mm * sums.sum_v[b] / d.count[b];
+}
+
+// Noise model var(level) = a + b * level (read noise plus shot noise, the
+// photon-transfer relation of EMVA 1288), fitted to the within-bin
+// variances of the flattest half of the bins (at an edge, a bin's width
+// spans real signal change that is not noise), and the bins' sigmas from
+// it, floored at 0.2 % of the level so that noise-free renders still weigh
+// the bins sensibly. Dark bars are much quieter than bright ground under
+// shot noise; one pooled variance would overstate the noise of the bars
+// and understate it on the ground.
+// Beside it, the detectability noise model (SampledProfile::noise_var_*)
+// from the same bins: the residual after a plane in (u, v) per bin, so
+// that the signal change across a bin's quarter pixel does not count as
+// noise (it inflates the spread by ~12 % on simulated captures, where the
+// noise is known).
+void fit_noise_models(ProfileData& d, const BinSums& sums, const std::vector<std::pair<double, int>>& flatness,
+                      double mean_abs_level, SampledProfile& out) {
+  VarianceLine spread_line, residual_line;
+  for (size_t k = 0; k < (flatness.size() + 1) / 2; ++k) {
+    const int b = flatness[k].second;
+    const double n = d.count[b];
+    const double sxx = sums.sum2[b] - sums.sum[b] * sums.sum[b] / n;
+    const double svv = sums.sum_vv[b] - sums.sum_v[b] * sums.sum_v[b] / n;
+    const double sxv = sums.sum_xv[b] - sums.sum[b] * sums.sum_v[b] / n;
+    // Residual sum of squares after a straight line in v.
+    const double explained_v = svv > 0 ? sxv * sxv / svv : 0.0;
+    spread_line.add(n - 2, d.value[b], std::max(0.0, sxx - explained_v) / (n - 2));
+    if (n < 5) continue;
+    // After a plane in (u, v): RSS = Sxx - c^T M^-1 c, M the (u, v) scatter, c = (Sxu, Sxv).
+    const double suu = sums.sum_uu[b] - sums.sum_u[b] * sums.sum_u[b] / n;
+    const double suv = sums.sum_uv[b] - sums.sum_u[b] * sums.sum_v[b] / n;
+    const double sxu = sums.sum_xu[b] - sums.sum[b] * sums.sum_u[b] / n;
+    const double det = suu * svv - suv * suv;
+    const double explained_uv = det > 1e-12 * (suu * svv + 1e-300)
+                                    ? (svv * sxu * sxu - 2 * suv * sxu * sxv + suu * sxv * sxv) / det
+                                    : explained_v;
+    residual_line.add(n - 3, d.value[b], std::max(0.0, sxx - explained_uv) / (n - 3));
+  }
+  const auto [a, slope] = spread_line.fit();
+  std::tie(out.noise_var_offset, out.noise_var_per_level) = residual_line.fit();
+  out.noise_dof = residual_line.s_w;
+  const double floor_sd = 2e-3 * mean_abs_level;
+  const double mean_level = spread_line.s_w > 0 ? spread_line.s_x / spread_line.s_w : 0.0;
+  out.noise_sd = std::sqrt(std::max(0.0, a + slope * mean_level));
+  for (int b = 0; b < d.bin_count; ++b)
+    if (d.count[b] > 0) {
+      const double var = std::max(a + slope * std::max(0.0, d.value[b]), floor_sd * floor_sd);
+      d.sigma[b] = std::sqrt(var / d.count[b]);
+    }
+}
+
 }  // namespace
 
 SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const IndexedArtwork& artwork,
@@ -187,7 +405,7 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   const double U = s.half_u_mm, V = s.half_v_mm;
 
   // Project a 7 x 7 lattice over the strip: outline, scale, and the data for
-  // a local quadratic pixel -> (u, v) map.
+  // the local pixel -> (u, v) map (PixelMap).
   const int n = 7;
   std::vector<Vec2> px, uv;
   for (int j = 0; j < n; ++j)
@@ -225,195 +443,16 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   d.u0_mm = -0.5 * d.bin_count * d.bin_mm;
   d.fit_begin = std::max(0, static_cast<int>(std::floor((warp(-U) - d.u0_mm) / d.bin_mm)));
   d.fit_end = std::min(d.bin_count, static_cast<int>(std::ceil((warp(U) - d.u0_mm) / d.bin_mm)));
-  std::vector<double> sum(d.bin_count, 0), sum2(d.bin_count, 0), sum_u(d.bin_count, 0), sum_uu(d.bin_count, 0);
-  // Along-bar moments: the light varies along the bars too (vignetting,
-  // illumination), which is not noise; the noise estimate removes it.
-  std::vector<double> sum_v(d.bin_count, 0), sum_vv(d.bin_count, 0), sum_xv(d.bin_count, 0);
-  std::vector<double> sum_xu(d.bin_count, 0), sum_uv(d.bin_count, 0);  // for the per-bin plane in (u, v)
-  struct Sample {
-    double u_mm, v_mm, value;
-    int bin;
-  };
-  std::vector<Sample> samples;  // kept for the along-bar light correction below
   d.count.assign(d.bin_count, 0);
-
-  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-  for (const Vec2& q : px) {
-    x0 = std::min(x0, q.x);
-    y0 = std::min(y0, q.y);
-    x1 = std::max(x1, q.x);
-    y1 = std::max(y1, q.y);
-  }
-  const int ix0 = std::max(0, int(std::floor(x0))), ix1 = std::min(W - 1, int(std::ceil(x1)));
-  const int iy0 = std::max(0, int(std::floor(y0))), iy1 = std::min(H - 1, int(std::ceil(y1)));
-  samples.reserve(size_t(std::max(0, ix1 - ix0 + 1)) * size_t(std::max(0, iy1 - iy0 + 1)));
-  const double inv_bin = 1 / d.bin_mm;
-  const float clip_at = static_cast<float>(clip_level * 0.9999);
-  for (int y = iy0; y <= iy1; ++y) {
-    const float* row = lum.ptr<float>(y);
-    // Along a row, u and v are cubics in x: stepped by forward differences
-    // (the third is constant), taken from the map at the row's first four
-    // pixels; evaluating the map per pixel cost more than the rest of the loop.
-    const Vec2 p0 = map_uv(ix0, y), p1 = map_uv(ix0 + 1, y), p2 = map_uv(ix0 + 2, y), p3 = map_uv(ix0 + 3, y);
-    double u = p0.x, v = p0.y;
-    double du = p1.x - p0.x, dv = p1.y - p0.y;
-    double ddu = p2.x - 2 * p1.x + p0.x, ddv = p2.y - 2 * p1.y + p0.y;
-    const double dddu = p3.x - 3 * p2.x + 3 * p1.x - p0.x, dddv = p3.y - 3 * p2.y + 3 * p1.y - p0.y;
-    for (int x = ix0; x <= ix1; ++x, u += du, v += dv, du += ddu, dv += ddv, ddu += dddu, ddv += dddv) {
-      if (std::abs(u) > U || std::abs(v) > V) continue;
-      const Vec2 p{warp(u), v};  // binned in w (ScaleWarp)
-      const float value = row[x];
-      if (!std::isfinite(value)) {
-        ++out.pixels_masked;
-        continue;
-      }
-      if (clip_level > 0 && (value >= clip_at || value <= 0.f)) ++out.pixels_clipped;
-      const int b = static_cast<int>(std::floor((p.x - d.u0_mm) * inv_bin));
-      if (b < 0 || b >= d.bin_count) continue;
-      sum[b] += value;
-      sum2[b] += double(value) * value;
-      sum_u[b] += p.x;
-      sum_uu[b] += p.x * p.x;
-      sum_v[b] += p.y;
-      sum_vv[b] += p.y * p.y;
-      sum_xv[b] += value * p.y;
-      sum_xu[b] += value * p.x;
-      sum_uv[b] += p.x * p.y;
-      samples.push_back({p.x, p.y, value, b});
-      ++d.count[b];
-      ++out.pixels_used;
-    }
-  }
-
-  // Bin means. The noise comes from the within-bin spread pooled over the
-  // flattest half of the bins: at an edge, a bin's quarter-pixel width spans
-  // real signal change that is not noise. It is floored at 0.2% of the level
-  // so that noise-free renders still weigh the bins sensibly.
-  d.value.assign(d.bin_count, std::numeric_limits<double>::quiet_NaN());
-  d.u_mean_mm.resize(d.bin_count);
-  d.sigma.assign(d.bin_count, 1.0);
-  double level = 0;
-  int level_n = 0;
-  for (int b = 0; b < d.bin_count; ++b) {
-    d.u_mean_mm[b] = d.bin_center_mm(b);
-    if (d.count[b] == 0) continue;
-    d.value[b] = sum[b] / d.count[b];
-    d.u_mean_mm[b] = sum_u[b] / d.count[b];
-    level += std::abs(d.value[b]);
-    ++level_n;
-  }
-  double spread = 0;
-  for (int b = 0; b < d.bin_count; ++b)
-    if (d.count[b] > 0) spread += std::max(0.0, sum_uu[b] - sum_u[b] * sum_u[b] / d.count[b]);
-  d.bin_spread_var_mm2 = out.pixels_used > 0 ? spread / out.pixels_used : 0.0;
+  BinSums sums(d.bin_count);
+  std::vector<Sample> samples;  // kept for the along-bar light correction
+  accumulate_pixels(lum, map_uv, warp, pixel_box(px, W, H), s, clip_level, sums, samples, out);
+  const double mean_abs_level = set_bin_means(d, sums, out.pixels_used);
   std::vector<int> filled;  // bins holding samples (aligned pixels leave gaps)
   for (int b = 0; b < d.bin_count; ++b)
     if (d.count[b] > 0) filled.push_back(b);
-  auto flattest_first = [&] {
-    std::vector<std::pair<double, int>> flatness;  // |change across neighbours|, bin
-    for (size_t k = 1; k + 1 < filled.size(); ++k)
-      if (d.count[filled[k]] >= 3)
-        flatness.push_back({std::abs(d.value[filled[k + 1]] - d.value[filled[k - 1]]), filled[k]});
-    std::sort(flatness.begin(), flatness.end());
-    return flatness;
-  };
-  std::vector<std::pair<double, int>> flatness = flattest_first();
-
-  // Light that varies along the bars (a hot spot, vignetting) is a relative
-  // gain 1 + g v over the strip. A bin's pixels need not be centred on
-  // v = 0: at a small roll the pixel rows fall into neighbouring bins in
-  // different bands of v, and their means would alternate by the gain
-  // difference, which no profile model describes. g is regressed from the
-  // pixels' departures from the profile P(u), interpolated between bin
-  // means: at a roll, u and v correlate within a bin, so a per-bin slope in
-  // u could not be told from the gain. Every bin mean is then referred to
-  // v = 0.
-  {
-    std::vector<double> bin_v(d.bin_count, 0);
-    for (int b : filled) bin_v[b] = sum_v[b] / d.count[b];
-    // P(u) interpolated between the filled bins around u. A sample sits in
-    // its own bin b, so its neighbours are b's previous and next filled bins
-    // (looked up once per bin, not searched per sample).
-    std::vector<int> prev_filled(d.bin_count, -1), next_filled(d.bin_count, -1);
-    for (size_t k = 0; k < filled.size(); ++k) {
-      if (k > 0) prev_filled[filled[k]] = filled[k - 1];
-      if (k + 1 < filled.size()) next_filled[filled[k]] = filled[k + 1];
-    }
-    auto profile_at = [&](double u_mm, int b) {
-      const int b0 = u_mm >= d.u_mean_mm[b] ? b : prev_filled[b];
-      const int b1 = u_mm >= d.u_mean_mm[b] ? next_filled[b] : b;
-      if (b0 < 0) return d.value[b1];
-      if (b1 < 0) return d.value[b0];
-      const double t = (u_mm - d.u_mean_mm[b0]) / (d.u_mean_mm[b1] - d.u_mean_mm[b0]);
-      return d.value[b0] + t * (d.value[b1] - d.value[b0]);
-    };
-    // Per pixel: the regressor P dv and the departure value - P.
-    std::vector<std::pair<double, double>> xy(samples.size());
-    double num = 0, den = 0;
-    for (size_t k = 0; k < samples.size(); ++k) {
-      const Sample& q = samples[k];
-      const double P = profile_at(q.u_mm, q.bin);
-      xy[k] = {P * (q.v_mm - bin_v[q.bin]), q.value - P};
-      num += xy[k].first * xy[k].second;
-      den += xy[k].first * xy[k].first;
-    }
-    const double g_per_mm = den > 0 ? num / den : 0.0;
-    // Applied only when it matters and is real: interpolating P(u) between
-    // the bins of a fine element leaves errors that a spurious g would
-    // otherwise absorb.
-    double rss = 0;
-    for (const auto& [x, y] : xy) rss += (y - g_per_mm * x) * (y - g_per_mm * x);
-    const double g_sigma = den > 0 && samples.size() > 2 ? std::sqrt(rss / (samples.size() - 2) / den) : 0.0;
-    const bool significant = std::abs(g_per_mm) > 4 * g_sigma && std::abs(g_per_mm) * V > 2e-3;
-    if (significant && std::abs(g_per_mm) * V < 0.5) {
-      for (int b : filled) d.value[b] /= 1.0 + g_per_mm * sum_v[b] / d.count[b];
-      flatness = flattest_first();
-    }
-  }
-
-  // Noise model var(level) = a + b * level (read noise plus shot noise, the
-  // photon-transfer relation of EMVA 1288), fitted to the within-bin
-  // variances of the flattest half of the bins. Dark bars are much quieter
-  // than bright ground under shot noise; one pooled variance would overstate
-  // the noise of the bars and understate it on the ground.
-  // Beside it, the detectability noise model (SampledProfile::noise_var_*)
-  // from the same bins: the residual after a plane in (u, v) per bin, so
-  // that the signal change across a bin's quarter pixel does not count as
-  // noise (it inflates the spread by ~12 % on simulated captures, where the
-  // noise is known).
-  VarianceLine spread_line, residual_line;
-  for (size_t k = 0; k < (flatness.size() + 1) / 2; ++k) {
-    const int b = flatness[k].second;
-    const double n = d.count[b];
-    const double sxx = sum2[b] - sum[b] * sum[b] / n;
-    const double svv = sum_vv[b] - sum_v[b] * sum_v[b] / n;
-    const double sxv = sum_xv[b] - sum[b] * sum_v[b] / n;
-    // Residual sum of squares after a straight line in v.
-    const double explained_v = svv > 0 ? sxv * sxv / svv : 0.0;
-    spread_line.add(n - 2, d.value[b], std::max(0.0, sxx - explained_v) / (n - 2));
-    if (n < 5) continue;
-    // After a plane in (u, v): RSS = Sxx - c^T M^-1 c, M the (u, v) scatter, c = (Sxu, Sxv).
-    const double suu = sum_uu[b] - sum_u[b] * sum_u[b] / n, suv = sum_uv[b] - sum_u[b] * sum_v[b] / n;
-    const double sxu = sum_xu[b] - sum[b] * sum_u[b] / n;
-    const double det = suu * svv - suv * suv;
-    const double explained_uv = det > 1e-12 * (suu * svv + 1e-300)
-                                    ? (svv * sxu * sxu - 2 * suv * sxu * sxv + suu * sxv * sxv) / det
-                                    : explained_v;
-    residual_line.add(n - 3, d.value[b], std::max(0.0, sxx - explained_uv) / (n - 3));
-  }
-  const auto [a, slope] = spread_line.fit();
-  const double s_w = spread_line.s_w, s_x = spread_line.s_x;
-  std::tie(out.noise_var_offset, out.noise_var_per_level) = residual_line.fit();
-  out.noise_dof = residual_line.s_w;
-  const double floor_sd = 2e-3 * (level_n ? level / level_n : 1.0);
-  const double mean_level = s_w > 0 ? s_x / s_w : 0.0;
-  out.noise_sd = std::sqrt(std::max(0.0, a + slope * mean_level));
-  for (int b = 0; b < d.bin_count; ++b)
-    if (d.count[b] > 0) {
-      const double var = std::max(a + slope * std::max(0.0, d.value[b]), floor_sd * floor_sd);
-      d.sigma[b] = std::sqrt(var / d.count[b]);
-    }
-
+  refer_to_mid_strip(d, sums, samples, filled, V);
+  fit_noise_models(d, sums, flattest_first(d, filled), mean_abs_level, out);
   d.ideal = ideal_boxes(artwork, s, 0.25 * d.bin_mm, warp);
   return out;
 }
