@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <map>
 #include <stdexcept>
 
@@ -16,21 +15,13 @@
 #include "tactres/simulate/renderer.h"
 #include "tactres/targets/mil_std_chart.h"
 #include "tactres/util/csv.h"
+#include "bench_stats.h"
 
 namespace tactres {
 namespace {
 
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * double(ts.tv_sec) + 1e-6 * double(ts.tv_nsec);
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
+using bench_stats::median;
+using bench_stats::thread_cpu_ms;
 
 // Frame i of n: roll and offset drift, the defocus (a Gaussian of 1.1 px at
 // the best focus, the middle frame) grows by 0.3 px per frame away from it,

@@ -24,6 +24,7 @@
 #include "tactres/simulate/truth.h"
 #include "tactres/targets/layout_json.h"
 #include "tactres/util/atomic_file.h"
+#include "bench_stats.h"
 
 namespace tactres {
 namespace {
@@ -31,28 +32,10 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
-// CPU time of the calling thread: the work done, whatever else the machine runs.
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * double(ts.tv_sec) + 1e-6 * double(ts.tv_nsec);
-}
-
-// Percentile with linear interpolation between order statistics (the
-// "type 7" definition of R and NumPy's default). `v` must not be empty.
-double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  const double x = p * double(v.size() - 1);
-  const size_t i = size_t(x);
-  if (i + 1 >= v.size()) return v.back();
-  return v[i] + (x - double(i)) * (v[i + 1] - v[i]);
-}
-double median(const std::vector<double>& v) { return v.empty() ? 0.0 : percentile(v, 0.5); }
-double mean(const std::vector<double>& v) {
-  double sum = 0;
-  for (double x : v) sum += x;
-  return v.empty() ? 0.0 : sum / double(v.size());
-}
+using bench_stats::mean;
+using bench_stats::median;
+using bench_stats::percentile;
+using bench_stats::thread_cpu_ms;
 
 // --------------------------------------------------------------- rendering
 

@@ -63,19 +63,20 @@ class GridModel {
       s_im_[k] = v.imag();
       log_nu_[k] = k > 0 ? std::log(nu) : 0.0;
     }
+    // The buffers every evaluation fills, and the inverse DFT planned once:
+    // a fit evaluates the model 10-20 times, and cv::dft plans the
+    // transform again on every call (a fifth of the fit), as allocating the
+    // buffers each time cost a tenth.
+    for (cv::Mat* m : {&spectrum_, &spectrum_lognu0_, &spectrum_beta_, &conv_, &d_lognu0_, &d_beta_})
+      m->create(1, n_fft_, CV_64F);
+    inverse_dft_ = cv::hal::DFT2D::create(
+        n_fft_, 1, CV_64F, 1, 1, CV_HAL_DFT_INVERSE | CV_HAL_DFT_SCALE | CV_HAL_DFT_REAL_OUTPUT | CV_HAL_DFT_IS_CONTINUOUS);
   }
 
   // The model on the grid, (D S (*) h)(u_j), and with `derivatives` its
   // derivatives in log nu0 and beta, into conv(), d_lognu0() and d_beta().
-  // The buffers are reused: a fit evaluates the model 10-20 times, and
-  // allocating them each time cost a tenth of the fit.
   void evaluate(double log_nu0, double beta, bool derivatives) const {
     const int half = n_fft_ / 2;
-    spectrum_.create(1, n_fft_, CV_64F);
-    if (derivatives) {
-      spectrum_lognu0_.create(1, n_fft_, CV_64F);
-      spectrum_beta_.create(1, n_fft_, CV_64F);
-    }
     // q grows with nu (beta > 0): past q = 40, T and T q are below 2e-16
     // of T(0) = 1, beyond what a double adds to it, and are set to zero
     // without their exponentials (blurred profiles end there early).
@@ -119,23 +120,14 @@ class GridModel {
     }
   }
 
-  // The first bin_count values of the inverse DFT are the grid; the rest is
-  // padding. The transform is planned once per model: cv::dft plans it
-  // again on every call, which was a fifth of the fit.
-  void inverse(const cv::Mat& ccs, cv::Mat& out) const {
-    if (!inverse_dft_)
-      inverse_dft_ = cv::hal::DFT2D::create(n_fft_, 1, CV_64F, 1, 1,
-                                            CV_HAL_DFT_INVERSE | CV_HAL_DFT_SCALE | CV_HAL_DFT_REAL_OUTPUT |
-                                                CV_HAL_DFT_IS_CONTINUOUS);
-    out.create(1, n_fft_, CV_64F);
-    inverse_dft_->apply(ccs.data, ccs.step, out.data, out.step);
-  }
+  // The first bin_count values of the inverse DFT are the grid; the rest is padding.
+  void inverse(const cv::Mat& ccs, cv::Mat& out) const { inverse_dft_->apply(ccs.data, ccs.step, out.data, out.step); }
 
   const ProfileData& d_;
   int n_fft_ = 0;
   std::vector<double> s_re_, s_im_, log_nu_;
   mutable cv::Mat spectrum_, spectrum_lognu0_, spectrum_beta_, conv_, d_lognu0_, d_beta_;
-  mutable cv::Ptr<cv::hal::DFT2D> inverse_dft_;
+  cv::Ptr<cv::hal::DFT2D> inverse_dft_;
 };
 
 // One residual per non-empty bin in the fit range, weighted by 1/sigma.
