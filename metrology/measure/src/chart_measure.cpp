@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "chart_frames.h"
+#include "chart_level_step.h"
 #include "chart_motion.h"
 #include "tactres/measure/element_pipeline.h"
 #include "tactres/targets/usaf_series.h"
@@ -102,44 +103,6 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
     jobs.push_back(std::move(job));
   }
   return jobs;
-}
-
-// The level step per orientation (what the reference patch is in layout
-// mode): the median of the three coarsest elements that allow it, fitted
-// with free contrast, so that one odd pattern (a mismatch, dust on a bar)
-// does not scale every other. One orientation missing: the other's stands
-// in (a printed chart has one ink density). False if neither has one.
-bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& refs, const std::vector<ElementJob>& jobs,
-                       const std::vector<std::vector<SampledProfile>>& profiles, const MeasureOptions& mo,
-                       ReferenceResult& ref) {
-  ref.signature = Signature::albedo;
-  std::vector<ProfileFit> fits[2];  // [vertical bars]
-  for (size_t i = 0; i < jobs.size(); ++i) {
-    const ElementResult& e = jobs[i].element;
-    std::vector<ProfileFit>& f = fits[e.orientation == BarOrientation::vertical_bars];
-    const SampledProfile& p = profiles[i].front();
-    if (f.size() >= 3 || e.px_per_bar < 3) continue;
-    if (D.patterns[refs[i].pattern].predicted || !p.in_view || p.pixels_clipped > p.pixels_used / 50) continue;
-    ProfileFitOptions fo;
-    fo.fit_contrast = true;
-    fo.fit_shape = mo.fit_psf_shape;  // a fixed Gaussian would put a heavy-tailed PSF's low-frequency loss into the level step
-    const ProfileFit fit = fit_profile(p.data, fo);
-    if (fit.usable && std::abs(fit.contrast) > 5 * fit.contrast_sigma) f.push_back(fit);
-  }
-  for (int vertical = 0; vertical < 2; ++vertical) {
-    std::vector<ProfileFit>& f = fits[vertical];
-    if (f.empty()) continue;
-    std::sort(f.begin(), f.end(), [](const ProfileFit& a, const ProfileFit& b) { return a.contrast < b.contrast; });
-    const ProfileFit& med = f[f.size() / 2];
-    ref.step(vertical ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars) = {
-        med.contrast, med.contrast_sigma, med.chi2_reduced};
-  }
-  const bool have_h = !fits[0].empty(), have_v = !fits[1].empty();
-  if (!have_h && !have_v) return false;
-  if (!have_h) ref.horizontal_bars = {ref.vertical_bars.contrast, ref.vertical_bars.contrast_sigma, 0};
-  if (!have_v) ref.vertical_bars = {ref.horizontal_bars.contrast, ref.horizontal_bars.contrast_sigma, 0};
-  ref.usable = true;
-  return true;
 }
 
 // Elements of which only one pattern was found: a status, not a guess
@@ -484,7 +447,9 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   M.stage_seconds.push_back({"frames", t.seconds()});
 
   t.restart();
-  const bool scaled = chart_level_steps(D, refs, jobs, profiles, mo, M.reference);
+  std::string step_note;
+  const bool scaled = chart::chart_level_steps(D, refs, jobs, profiles, mo, M.reference, &step_note);
+  if (!step_note.empty()) M.warnings.push_back(step_note);
   M.stage_seconds.push_back({"reference_patch", t.seconds()});
   if (!scaled) {
     M.problem =

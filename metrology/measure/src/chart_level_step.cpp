@@ -1,0 +1,136 @@
+// The chart's level step (chart_level_step.h).
+
+#include "chart_level_step.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+namespace tactres::chart {
+
+namespace {
+
+// 0 or 1 when the ideal holds that value over [u - r, u + r]; -1 otherwise.
+int plateau_of(const ProfileData& d, double u_mm, double r_mm) {
+  const double s0 = d.ideal_at(u_mm);
+  if (!(s0 == 0 || s0 >= 0.999)) return -1;
+  for (int k = -4; k <= 4; ++k)
+    if (std::abs(d.ideal_at(u_mm + k * r_mm / 4) - s0) > 1e-3) return -1;
+  return s0 == 0 ? 0 : 1;
+}
+
+LevelStep step_of(const ProfileFit& f) { return {f.contrast, f.contrast_sigma, f.chi2_reduced}; }
+
+// A fitted step that stands out of its error and is not pinned at the
+// model's bound (c = -1: ink reflecting nothing, where a fit that cannot
+// describe the edges ends up, with a sigma as large as the step).
+bool fitted_step_usable(const ProfileFit& f) {
+  return f.usable && std::abs(f.contrast) > 5 * f.contrast_sigma && f.contrast > -0.999;
+}
+
+}  // namespace
+
+std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_width_mm) {
+  const double r_mm = 0.25 * bar_width_mm;
+  // Ground: least squares line B0 + B1 u through the ground plateaus.
+  double n = 0, su = 0, sv = 0, suu = 0, suv = 0;
+  int ground_runs = 0, last = -1;
+  struct InkBin {
+    double u, v;
+    int bar;
+  };
+  std::vector<InkBin> ink;
+  int bars = 0;
+  for (int b = d.fit_begin; b < d.fit_end; ++b) {
+    const double u = d.bin_center_mm(b), v = d.value[b];
+    const int p = std::isfinite(v) && d.count[b] > 0 ? plateau_of(d, u, r_mm) : -1;
+    if (p == 0) {
+      ground_runs += last != 0;
+      n += 1, su += u, sv += v, suu += u * u, suv += u * v;
+    } else if (p == 1) {
+      bars += last != 1;
+      ink.push_back({u, v, bars - 1});
+    }
+    if (p >= 0) last = p;
+  }
+  if (ground_runs < 2 || bars < 2 || n < 2) return std::nullopt;
+  const double det = n * suu - su * su;
+  const double b1 = det > 0 ? (n * suv - su * sv) / det : 0;
+  const double b0 = (sv - b1 * su) / n;
+  std::vector<double> sum(bars, 0), count(bars, 0);
+  for (const InkBin& k : ink) {
+    const double ground = b0 + b1 * k.u;
+    if (!(ground > 0)) return std::nullopt;
+    sum[k.bar] += k.v / ground;
+    count[k.bar] += 1;
+  }
+  double mean = 0, sq = 0;
+  for (int i = 0; i < bars; ++i) mean += sum[i] / count[i] / bars;
+  for (int i = 0; i < bars; ++i) sq += std::pow(sum[i] / count[i] - mean, 2);
+  const double sd = std::sqrt(sq / (bars - 1));
+  // One bar's ratio stands for all: at least 1 % of the step, so that three
+  // bars that happen to agree do not claim more than a print achieves.
+  const double sigma = std::max(sd / std::sqrt(double(bars)), 0.01 * std::abs(mean - 1));
+  return LevelStep{mean - 1, sigma, 0};
+}
+
+// The level step per orientation (what the reference patch is in layout
+// mode): the median of the three coarsest elements that allow it, fitted
+// with free contrast, so that one odd pattern (a mismatch, dust on a bar)
+// does not scale every other. Where the profile model cannot describe an
+// element's edges (a single element filling a microscope frame: bars
+// hundreds of pixels wide, so each bin's error is tiny and any fringe is
+// a misfit of chi^2 1e7, which pins the fitted step at its bound), the step
+// is read off the element's own plateaus instead. One orientation missing:
+// the other's stands in (a printed chart has one ink density).
+bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& refs,
+                       const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
+                       const MeasureOptions& mo, ReferenceResult& ref, std::string* note) {
+  ref.signature = Signature::albedo;
+  std::vector<LevelStep> steps[2];  // [vertical bars]
+  std::vector<std::string> from_plateaus;
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    const ElementResult& e = jobs[i].element;
+    std::vector<LevelStep>& s = steps[e.orientation == BarOrientation::vertical_bars];
+    const SampledProfile& p = profiles[i].front();
+    if (s.size() >= 3 || e.px_per_bar < 3) continue;
+    if (D.patterns[refs[i].pattern].predicted || !p.in_view || p.pixels_clipped > p.pixels_used / 50) continue;
+    ProfileFitOptions fo;
+    fo.fit_contrast = true;
+    fo.fit_shape = mo.fit_psf_shape;  // a fixed Gaussian would put a heavy-tailed PSF's low-frequency loss into the level step
+    const ProfileFit fit = fit_profile(p.data, fo);
+    if (fitted_step_usable(fit)) {
+      s.push_back(step_of(fit));
+      continue;
+    }
+    if (e.px_per_bar < 12) continue;  // plateaus a quarter bar inside each shape need wide bars
+    const std::optional<LevelStep> plateau = plateau_level_step(p.data, refs[i].bar_width_mm());
+    if (plateau && plateau->distinct_from_zero(5)) {
+      s.push_back(*plateau);
+      from_plateaus.push_back(fmt::format("G{}E{} {}", e.group, e.element, to_string(e.orientation)));
+    }
+  }
+  for (int vertical = 0; vertical < 2; ++vertical) {
+    std::vector<LevelStep>& s = steps[vertical];
+    if (s.empty()) continue;
+    std::sort(s.begin(), s.end(), [](const LevelStep& a, const LevelStep& b) { return a.contrast < b.contrast; });
+    ref.step(vertical ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars) = s[s.size() / 2];
+  }
+  const bool have_h = !steps[0].empty(), have_v = !steps[1].empty();
+  if (!have_h && !have_v) return false;
+  if (!have_h) ref.horizontal_bars = {ref.vertical_bars.contrast, ref.vertical_bars.contrast_sigma, 0};
+  if (!have_v) ref.vertical_bars = {ref.horizontal_bars.contrast, ref.horizontal_bars.contrast_sigma, 0};
+  ref.usable = true;
+  if (note && !from_plateaus.empty()) {
+    std::string which;
+    for (const std::string& w : from_plateaus) which += (which.empty() ? "" : ", ") + w;
+    *note = fmt::format(
+        "the level step was read off the plateaus of {} (the profile model does not fit those bars' edges within "
+        "their noise); check that their middles are flat",
+        which);
+  }
+  return true;
+}
+
+}  // namespace tactres::chart

@@ -1,0 +1,66 @@
+#include "chart_level_step.h"
+
+#include <cmath>
+#include <random>
+
+#include <doctest/doctest.h>
+
+using namespace tactres;
+
+namespace {
+
+// Three bars of width w (mm) centred on 0, the ground lit by a ramp
+// 1 + 0.1 u, ink at (1 + c) times the ground, smoothed by a box of
+// half-width `blur_mm`, with relative noise `noise`, in bins of w / 20.
+ProfileData three_bars(double c, double w, double blur_mm, double noise, unsigned seed) {
+  ProfileData d;
+  d.bin_mm = w / 20;
+  d.bin_count = 200;
+  d.u0_mm = -0.5 * d.bin_count * d.bin_mm;
+  for (int k = -1; k <= 1; ++k) d.ideal.push_back({(2 * k - 0.5) * w, (2 * k + 0.5) * w, 1.0});
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int b = 0; b < d.bin_count; ++b) {
+    const double u = d.bin_center_mm(b);
+    double s = 0;
+    for (int j = -10; j <= 10; ++j) s += d.ideal_at(u + blur_mm * j / 10) / 21;
+    d.value.push_back((1 + 0.1 * u) * (1 + c * s) * (1 + noise * n(rng)));
+    d.u_mean_mm.push_back(u);
+    d.sigma.push_back(noise);
+    d.count.push_back(100);
+  }
+  d.fit_begin = 0;
+  d.fit_end = d.bin_count;
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("chart level step: read off the plateaus of wide bars under a light ramp and blur") {
+  for (const double c : {-0.97, -0.5, 0.8}) {
+    CAPTURE(c);
+    // Blur up to a quarter bar leaves the plateaus alone.
+    const auto s = chart::plateau_level_step(three_bars(c, 1.0, 0.2, 0.002, 1), 1.0);
+    REQUIRE(s);
+    CHECK(s->contrast == doctest::Approx(c).epsilon(0.01));
+    CHECK(s->contrast_sigma > 0);
+    CHECK(std::abs(s->contrast - c) < 4 * s->contrast_sigma + 1e-3);
+  }
+  // Blur wider than half a bar reaches the middles: the step reads smaller
+  // (which is why it is only a fallback for wide, sharp bars).
+  const auto soft = chart::plateau_level_step(three_bars(-0.9, 1.0, 0.8, 0.0, 1), 1.0);
+  REQUIRE(soft);
+  CHECK(std::abs(soft->contrast) < 0.89);
+}
+
+TEST_CASE("chart level step: no plateaus, no step") {
+  ProfileData d = three_bars(-0.9, 1.0, 0.1, 0.0, 1);
+  // Only the middle of the profile: one bar and no ground on both sides.
+  d.fit_begin = 90;
+  d.fit_end = 110;
+  CHECK_FALSE(chart::plateau_level_step(d, 1.0));
+  // All bins empty.
+  ProfileData e = three_bars(-0.9, 1.0, 0.1, 0.0, 1);
+  for (int& n : e.count) n = 0;
+  CHECK_FALSE(chart::plateau_level_step(e, 1.0));
+}
