@@ -85,6 +85,9 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
     job.sampling = store.fitted_in_view(r, frames[i], sampling_for(mo, e.px_per_bar));
     job.complement_ideal = D.light_bars;
     const PatternFrame f = store.recentre(r, frames[i], job.sampling);
+    // Recentring can move a strip that only just fitted out of the image
+    // (a single element filling the frame): fit its margin again.
+    job.sampling = store.fitted_in_view(r, f, job.sampling);
     e.px_per_bar = r.bar_width_mm() * f.px_per_mm;
     job.placements.push_back(store.place(r, f, job.sampling));
     PatternFrame detected = f;
