@@ -1,4 +1,5 @@
 // `tactres measure`: lp/mm of one capture or a batch, with CI exit codes.
+#include <algorithm>
 #include <unistd.h>
 
 #include <atomic>
@@ -80,6 +81,7 @@ std::string parts_text(const LimitBreakdown& p, bool relative = false) {
 }
 
 std::string chart_anchor_text(const ChartDetection& d) {
+  if (d.single_pattern) return "none (a single three-bar pattern, called G0E1; its orientation is the image's)";
   if (d.anchor == ChartAnchor::none)
     return d.arrangement.recognised
                ? "none (arrangement recognised but no group label read: the group is known modulo 2 only)"
@@ -137,9 +139,18 @@ void summarise(const Args& a, const Measurement& m, const ChartDetection* chart,
   }
   if (chart) {
     const bool relative = chart->anchor == ChartAnchor::none;
+    // An orientation with no pattern at all (a single-pattern frame) is not
+    // "none resolved": nothing of it was in view.
+    auto chart_parts = [&](const LimitBreakdown& p, BarOrientation o) {
+      const bool seen = std::any_of(m.elements.begin(), m.elements.end(),
+                                    [&](const ElementResult& e) { return e.orientation == o; });
+      return seen ? parts_text(p, relative) : std::string("no pattern in view");
+    };
     o.summary = fmt::format("{}{}: H {}; V {}; {} elements ok, {} graded; chart {}, anchor: {}{}{}",
-                            relative ? "RELATIVE: " : "", o.design, parts_text(m.horizontal_parts, relative),
-                            parts_text(m.vertical_parts, relative), ok, other, chart->light_bars ? "negative" : "positive",
+                            relative ? "RELATIVE: " : "", o.design,
+                            chart_parts(m.horizontal_parts, BarOrientation::horizontal_bars),
+                            chart_parts(m.vertical_parts, BarOrientation::vertical_bars), ok, other,
+                            chart->light_bars ? "negative" : "positive",
                             chart_anchor_text(*chart),
                             relative ? " (group unknown: indices count from the largest element found, called G0E1)"
                                      : "",

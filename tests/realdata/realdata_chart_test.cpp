@@ -33,7 +33,7 @@ namespace {
 
 // Share of the readings the measurement agrees with so far (a floor against
 // regressions; raise it as chart mode improves).
-constexpr double kMinAgreement = 0.48;  // 14 of 29 on 2026-11-26 (session 9; 12 in session 8, 8 in session 7)
+constexpr double kMinAgreement = 0.51;  // 15 of 29 on 2026-11-26 (session 9; 12 in session 8, 8 in session 7)
 // Labelled captures anchored absolute (the goal: every one whose numbers
 // are legible); a floor against regressions.
 constexpr int kMinIdentified = 4;  // dev_04, dev_05, dev_11, dev_14 on 2026-11-26
@@ -139,9 +139,15 @@ void check_agreement() {
       std::string got = usable ? "relative" : "unusable";
       bool ok = false;
       if (usable && single) {
-        // One element in view: it must be measured and called resolved.
+        // One element in view: it must be measured and called resolved. A
+        // frame that holds one triplet only (dev_15/16) is measured in the
+        // image's orientation: nothing in it but a digit's fragment says
+        // which of the element's triplets it is (READINGS.md: "either way
+        // it is resolved"), so either orientation counts there.
+        const bool one_triplet = (*r.j)["chart"].value("single_pattern", false);
         int resolved = 0;
-        for (const json& e : (*r.j)["elements"]) resolved += e["orientation"] == o && e["resolved"] == true;
+        for (const json& e : (*r.j)["elements"])
+          resolved += (one_triplet || e["orientation"] == o) && e["resolved"] == true;
         ok = resolved >= 1;
         got = ok ? "resolved" : "not resolved";
       } else if (usable && absolute(*r.j)) {

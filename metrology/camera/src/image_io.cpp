@@ -155,6 +155,12 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
     throw UnusableInput(fmt::format("cannot decode image {}: {} (truncated or corrupt file?)",
                                     path.string(), in->geterror()));
 
+  // Signed integers (a laser-scanning microscope's int16) come as [-1, 1]:
+  // offset to [0, 1], so that the format's minimum is black and clips, as an
+  // unsigned one's 0 does (the tests of clipping and the level step assume
+  // non-negative light).
+  if (out.integer_format && spec.format.is_signed())
+    for (float& v : pixels) v = 0.5f * (v + 1.0f);
   out.transfer = decide_transfer(options.transfer, colour_tag_of(path, *in, spec), out.integer_format,
                                  out.bits_per_sample);
   in->close();

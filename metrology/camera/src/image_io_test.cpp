@@ -122,3 +122,15 @@ TEST_CASE("load_image: untagged files follow the bit depth, tagged files follow 
     CHECK(std::abs(other.luminance.at<float>(1, 1) - img.luminance.at<float>(1, 1)) > 0.05);
   }
 }
+
+TEST_CASE("load_image: signed integers are offset so that the format's minimum is black") {
+  TempFolder dir;
+  // OpenImageIO hands int16 over as [-1, 1]: -0.5 (-16384) is a quarter of
+  // the way up from the format's minimum, +0.5 three quarters.
+  for (const float code : {-0.5f, 0.0f, 0.5f}) {
+    CAPTURE(code);
+    const LoadedImage img = load_image(write_grey(dir.path / "signed16.tif", OIIO::TypeDesc::INT16, code));
+    CHECK(img.transfer.curve.name() == "linear");
+    CHECK(img.luminance.at<float>(2, 2) == doctest::Approx(0.5 * (code + 1)).epsilon(1e-4));
+  }
+}

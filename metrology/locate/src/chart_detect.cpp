@@ -349,6 +349,28 @@ void add_partial_elements(ChartDetection& D, const std::vector<int>& lone, const
             [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
 }
 
+// ChartDetection::single_pattern: the one large pattern, if it is the only
+// pattern of at least half its period; measured in the image's orientation.
+bool single_pattern_element(ChartDetection& D) {
+  int best = -1;
+  for (size_t k = 0; k < D.patterns.size(); ++k)
+    if (best < 0 || D.patterns[k].period_px > D.patterns[best].period_px) best = static_cast<int>(k);
+  if (best < 0 || D.patterns[best].period_px < 2 * ChartDetection::kSinglePatternMinBarPx) return false;
+  for (size_t k = 0; k < D.patterns.size(); ++k)
+    if (static_cast<int>(k) != best && D.patterns[k].period_px > 0.5 * D.patterns[best].period_px) return false;
+  const BarPattern& p = D.patterns[best];
+  ChartElement e;
+  (std::abs(p.bar_dir.x) >= std::abs(p.bar_dir.y) ? e.h : e.v) = best;
+  e.period_px = p.period_px;
+  D.elements = {e};
+  D.single_pattern = true;
+  D.unpaired_patterns = 0;
+  D.anchor_description =
+      "none (a single three-bar pattern: indices count from it, called G0E1; its orientation is the image's)";
+  D.found = true;
+  return true;
+}
+
 }  // namespace
 
 ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& options) {
@@ -380,6 +402,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   D.unpaired_patterns = pairing.unpaired;
   std::vector<ChartElement> elements = std::move(pairing.elements);
   const double separation_periods = drop_odd_separations(D, elements);
+  if (elements.empty() && single_pattern_element(D)) return D;
   if (elements.empty()) {
     D.problem = D.patterns.empty()
                     ? "no USAF-1951 chart found: no three-bar pattern in the image (is the chart in view, in "

@@ -111,3 +111,42 @@ TEST_CASE("chart detection: no chart, and bad options") {
   o.largest_element = 7;
   CHECK_THROWS_AS(o.validate(), std::invalid_argument);
 }
+
+namespace {
+
+// One triplet of bars `bar_px` wide and 5 bar widths long, dark on a
+// noisy bright ground, bars along image x when `along_x`.
+cv::Mat single_triplet(double bar_px, bool along_x, unsigned seed) {
+  cv::Mat img(400, 400, CV_32F);
+  cv::RNG rng(seed);
+  rng.fill(img, cv::RNG::NORMAL, 0.6, 0.05);
+  for (int k = -1; k <= 1; ++k) {
+    const double c = 200 + 2 * k * bar_px;
+    cv::Rect2d r(c - 0.5 * bar_px, 200 - 2.5 * bar_px, bar_px, 5 * bar_px);  // vertical bars
+    if (along_x) r = cv::Rect2d(r.y, r.x, r.height, r.width);
+    img(cv::Rect(r)).setTo(0.1);
+  }
+  cv::GaussianBlur(img, img, {0, 0}, 1.0);
+  return img;
+}
+
+}  // namespace
+
+TEST_CASE("chart detection: a frame holding one large triplet is measured as a single pattern in the image's orientation") {
+  for (const bool along_x : {false, true}) {
+    CAPTURE(along_x);
+    const ChartDetection d = detect_chart(single_triplet(20, along_x, 3), {});
+    REQUIRE(d.found);
+    CHECK(d.single_pattern);
+    REQUIRE(d.elements.size() == 1);
+    const ChartElement& e = d.elements.front();
+    CHECK((along_x ? e.h : e.v) >= 0);
+    CHECK((along_x ? e.v : e.h) == -1);
+    CHECK(e.period_px == doctest::Approx(40).epsilon(0.05));
+    CHECK(d.anchor == ChartAnchor::none);
+  }
+  // A small triplet alone is not a chart: such patterns turn up in texture.
+  const ChartDetection small = detect_chart(single_triplet(5, false, 4), {});
+  CHECK_FALSE(small.found);
+  CHECK_FALSE(small.single_pattern);
+}

@@ -125,6 +125,13 @@ void add_partial_elements(const ChartDetection& D, Measurement& M) {
   });
 }
 
+// Nyquist at the chart plane, from the largest element's scale (its H and
+// V patterns come first; a single-pattern detection has one).
+void set_nyquist(const std::vector<PatternFrame>& frames, Measurement& M) {
+  M.nyquist_h_lp_per_mm = 0.5 * frames.front().px_per_mm;
+  M.nyquist_v_lp_per_mm = 0.5 * frames[std::min<size_t>(1, frames.size() - 1)].px_per_mm;
+}
+
 void start_measurement(const LoadedImage& image, Measurement& M) {
   M.image_width = image.width;
   M.image_height = image.height;
@@ -402,8 +409,7 @@ ChartFrameResult measure_tracked(const LoadedImage& image, const ChartMeasureOpt
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, context, fitted)});
   M.elements = T.elements;
   for (size_t k = 0; k < fitted.size(); ++k) M.elements[index[k]] = fitted[k];
-  M.nyquist_h_lp_per_mm = 0.5 * frames[0].px_per_mm;
-  M.nyquist_v_lp_per_mm = 0.5 * frames[1].px_per_mm;
+  set_nyquist(frames, M);
 
   ChartTrack next = T;
   next.motion = motion.motion;
@@ -439,8 +445,9 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   std::vector<PatternRef> refs;
   for (const ChartElement& e : D.elements) {
     const double f = usaf_lp_per_mm(e.group, e.element);
-    refs.push_back({e.h, BarOrientation::horizontal_bars, e.group, e.element, f});
-    refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f});
+    // Both patterns, except for a single-pattern detection (chart_detect.h).
+    if (e.h >= 0) refs.push_back({e.h, BarOrientation::horizontal_bars, e.group, e.element, f});
+    if (e.v >= 0) refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f});
   }
   chart::PlacementStore store(lum, D, image.saturation_level);
   ShiftLog shifts;
@@ -460,9 +467,7 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
         "visible bars; frame a coarser group or bring the chart into focus";
     return out;
   }
-  // Nyquist at the chart plane, from the largest element's scale.
-  M.nyquist_h_lp_per_mm = 0.5 * frames[0].px_per_mm;
-  M.nyquist_v_lp_per_mm = 0.5 * frames[1].px_per_mm;
+  set_nyquist(frames, M);
 
   std::vector<size_t> graded;
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false}, M.elements, &graded)});

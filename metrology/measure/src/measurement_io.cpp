@@ -200,6 +200,7 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
   j["patterns_found"] = d.patterns.size();
   j["elements_found"] = d.elements.size();
   j["unpaired_patterns"] = d.unpaired_patterns;
+  j["single_pattern"] = d.single_pattern;  // one triplet in view, measured in the image's orientation
   j["predicted_elements"] = d.predicted_elements;
   const auto& a = d.arrangement;
   if (a.steps_checked > 0 || !a.note.empty())

@@ -83,7 +83,8 @@ const char* to_string(ChartAnchor a);
 
 // One element: a horizontal- and a vertical-bar pattern of the same size.
 struct ChartElement {
-  int h = -1, v = -1;       // indices into ChartDetection::patterns; -1: not found (partial elements only)
+  int h = -1, v = -1;       // indices into ChartDetection::patterns; -1: not found (partial elements and
+                            // a single-pattern detection only)
   double period_px = 0;     // mean of the two
   int relative_index = 0;   // 0 = the largest element found; +1 per 2^(1/6) finer
   int group = 0, element = 1;  // absolute when anchored; else relative (largest = group 0 element 1)
@@ -117,6 +118,15 @@ struct ChartDetection {
   // index that no element holds. Kept apart from `elements` (which all have
   // both patterns); reported with a graded status, never measured.
   std::vector<ChartElement> partial;
+  // One three-bar pattern and nothing else of a chart: a microscope frame
+  // that holds a single triplet of one element (its partner and the digits
+  // out of view). It is measured as elements[0], whose other index is -1.
+  // Nothing in the frame tells which of the element's two triplets it is,
+  // so its orientation is the image's (bars along image x: horizontal_bars).
+  // Only a pattern with bars >= kSinglePatternMinBarPx wide that is the
+  // only one of its size counts: small triplets turn up in texture.
+  bool single_pattern = false;
+  static constexpr double kSinglePatternMinBarPx = 8;
   // The standard arrangement, when recognised (see the top of this file):
   // the index of relative index 0 modulo 12 and the handedness; the group
   // labels read from the image, if any.
