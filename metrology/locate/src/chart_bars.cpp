@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -94,14 +95,19 @@ void collect_bars(const cv::Mat& mask, double min_width_px, std::vector<Bar>& ou
 std::vector<Bar> deduplicate(std::vector<Bar> bars) {
   std::sort(bars.begin(), bars.end(), [](const Bar& a, const Bar& b) { return a.score < b.score; });
   std::vector<Bar> kept;
+  // The kept bars by x: a duplicate lies within 0.6 of b's width of b, so
+  // only that slice is searched (thousands of candidates on a textured frame).
+  std::multimap<double, size_t> by_x;
   for (const Bar& b : bars) {
     bool dup = false;
-    for (const Bar& k : kept)
-      if (norm(k.c - b.c) < 0.6 * std::min(k.width, b.width) && std::abs(std::log(k.width / b.width)) < 0.4) {
-        dup = true;
-        break;
-      }
-    if (!dup) kept.push_back(b);
+    const double r = 0.6 * b.width;
+    for (auto it = by_x.lower_bound(b.c.x - r); it != by_x.end() && it->first <= b.c.x + r && !dup; ++it) {
+      const Bar& k = kept[it->second];
+      dup = norm(k.c - b.c) < 0.6 * std::min(k.width, b.width) && std::abs(std::log(k.width / b.width)) < 0.4;
+    }
+    if (dup) continue;
+    by_x.emplace(b.c.x, kept.size());
+    kept.push_back(b);
   }
   return kept;
 }
