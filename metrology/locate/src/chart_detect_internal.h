@@ -38,9 +38,10 @@ struct PatternsFound {
 // - linear: the luminance as loaded;
 // - stabilised: its square root, where photon noise (whose variance grows
 //   with the level) is about the same at every level, so that one noise
-//   margin fits a chart lit unevenly, plus the same two levels down a
-//   Gaussian pyramid, where texture finer than a bar (a fibre bundle's
-//   honeycomb, laser speckle) is gone while bars 6 px wide or more remain.
+//   margin fits a chart lit unevenly.
+// Both are searched over a Gaussian pyramid (the window ladder beyond 15 px
+// is taken an octave down per doubling), where texture finer than a bar (a
+// fibre bundle's honeycomb, laser speckle) is gone while wider bars remain.
 // In linear light the bright speckle of dev_11's lit side set the margin
 // and its dim bars in the shadow were lost (9 elements found in the full
 // frame, 36 in the square root); in the square root, read noise in the

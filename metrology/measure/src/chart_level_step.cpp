@@ -22,12 +22,12 @@ int plateau_of(const ProfileData& d, double u_mm, double r_mm) {
 
 LevelStep step_of(const ProfileFit& f) { return {f.contrast, f.contrast_sigma, f.chi2_reduced}; }
 
-// A fitted step that stands out of its error and is not pinned at the
-// model's bound (c = -1: ink reflecting nothing, where a fit that cannot
-// describe the edges ends up, with a sigma as large as the step).
-bool fitted_step_usable(const ProfileFit& f) {
-  return f.usable && std::abs(f.contrast) > 5 * f.contrast_sigma && f.contrast > -0.999;
-}
+// A fitted step that stands out of its error.
+bool fitted_step_usable(const ProfileFit& f) { return f.usable && std::abs(f.contrast) > 5 * f.contrast_sigma; }
+
+// Pinned at the model's bound (c = -1: ink reflecting nothing), where a fit
+// that cannot describe the edges also ends up.
+bool at_bound(const ProfileFit& f) { return f.contrast <= -0.999; }
 
 }  // namespace
 
@@ -100,15 +100,18 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
     fo.fit_contrast = true;
     fo.fit_shape = mo.fit_psf_shape;  // a fixed Gaussian would put a heavy-tailed PSF's low-frequency loss into the level step
     const ProfileFit fit = fit_profile(p.data, fo);
-    if (fitted_step_usable(fit)) {
+    if (fitted_step_usable(fit) && !at_bound(fit)) {
       s.push_back(step_of(fit));
       continue;
     }
-    if (e.px_per_bar < 12) continue;  // plateaus a quarter bar inside each shape need wide bars
-    const std::optional<LevelStep> plateau = plateau_level_step(p.data, refs[i].bar_width_mm());
+    // Plateaus a quarter bar inside each shape need wide bars.
+    const std::optional<LevelStep> plateau =
+        e.px_per_bar >= 12 ? plateau_level_step(p.data, refs[i].bar_width_mm()) : std::nullopt;
     if (plateau && plateau->distinct_from_zero(5)) {
       s.push_back(*plateau);
       from_plateaus.push_back(fmt::format("G{}E{} {}", e.group, e.element, to_string(e.orientation)));
+    } else if (fitted_step_usable(fit)) {
+      s.push_back(step_of(fit));  // at the bound, with no plateaus to check it: a chrome mask's c can be ~-1
     }
   }
   for (int vertical = 0; vertical < 2; ++vertical) {

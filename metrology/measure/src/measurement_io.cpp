@@ -170,6 +170,9 @@ cv::Mat overlay_image(const cv::Mat& lum, const Measurement& m) {
   cv::Mat out;
   cv::cvtColor(grey, out, cv::COLOR_GRAY2BGR);
   const int shift = 4;  // sub-pixel drawing
+  // Lines one pixel wide per 1000 px of the shorter side: a 4K frame is
+  // looked at scaled down, where 1 px lines vanish.
+  const int thickness = std::max(1, int(std::lround(std::min(lum.cols, lum.rows) / 1000.0)));
   auto P = [&](Vec2 p) { return cv::Point(int(std::lround(p.x * 16)), int(std::lround(p.y * 16))); };
   for (const ElementResult& e : m.elements) {
     if (!e.outline_valid) continue;
@@ -179,10 +182,10 @@ cv::Mat overlay_image(const cv::Mat& lum, const Measurement& m) {
     else colour = cv::Scalar(40, 40, 230);
     std::vector<cv::Point> poly;
     for (Vec2 p : e.outline_px) poly.push_back(P(p));
-    cv::polylines(out, poly, true, colour, 1, cv::LINE_AA, shift);
+    cv::polylines(out, poly, true, colour, thickness, cv::LINE_AA, shift);
   }
   for (const FiducialDetection& f : m.fiducials.discs) {
-    cv::circle(out, P(f.centroid_px), 5 * 16, cv::Scalar(255, 120, 0), 1, cv::LINE_AA, shift);
+    cv::circle(out, P(f.centroid_px), 5 * 16 * thickness, cv::Scalar(255, 120, 0), thickness, cv::LINE_AA, shift);
     cv::putText(out, f.id, cv::Point(int(f.centroid_px.x) + 8, int(f.centroid_px.y) - 8), cv::FONT_HERSHEY_SIMPLEX,
                 0.4, cv::Scalar(255, 120, 0), 1, cv::LINE_AA);
   }
