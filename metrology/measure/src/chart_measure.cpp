@@ -149,6 +149,7 @@ void decide_chart(const ChartDetection& D, const MeasureOptions& mo, Measurement
   // some groups and cuts others, and a cut coarse element says nothing
   // about the finer ones (layout mode, which frames the whole target,
   // counts it as unresolved instead).
+  grade_damaged(M, mo.criterion);
   decide_limits(M, mo.criterion, mo.detectability, true);
   add_partial_elements(D, M);
   M.stage_seconds.push_back({"decide", t.seconds()});

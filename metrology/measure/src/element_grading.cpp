@@ -130,9 +130,48 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
 
 bool is_unmeasured(const ElementResult& r, bool chart_photograph) {
   const ElementStatus s = r.status;
-  return s == ElementStatus::fit_failed || s == ElementStatus::clipped ||
+  return s == ElementStatus::fit_failed || s == ElementStatus::clipped || s == ElementStatus::damaged ||
          (s == ElementStatus::low_signal && r.m_scale_undetermined) ||
          (chart_photograph && (s == ElementStatus::out_of_view || r.m_undetermined));
+}
+
+void grade_damaged(Measurement& M, const Criterion& criterion) {
+  for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
+    std::vector<ElementResult*> row;  // this orientation's fitted elements, coarse to fine
+    for (ElementResult& r : M.elements)
+      if (r.orientation == o && !is_unmeasured(r, true) &&
+          (r.status == ElementStatus::ok || r.status == ElementStatus::aliased || r.status == ElementStatus::low_signal))
+        row.push_back(&r);
+    std::stable_sort(row.begin(), row.end(),
+                     [](const ElementResult* a, const ElementResult* b) { return a->lp_per_mm < b->lp_per_mm; });
+    auto resolved = [&](const ElementResult& r) {
+      return r.status == ElementStatus::ok && is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
+    };
+    for (size_t i = 0; i + 2 < row.size(); ++i) {
+      ElementResult& e = *row[i];
+      if (resolved(e)) continue;
+      // aliased: no bars at all; low_signal: m driven to 0 (m_sigma collapsed)
+      // or too uncertain, and then it cannot be told from its neighbours.
+      if (e.status == ElementStatus::low_signal && e.m_sigma > 0.25) continue;
+      const double m = e.status == ElementStatus::aliased ? 0.0 : e.m;
+      const double sigma = e.status == ElementStatus::aliased ? 0.0 : e.m_sigma;
+      // Both finer ones resolved, and each 3 combined sigma above this one.
+      bool finer_show_bars = true;
+      for (size_t k = i + 1; k <= i + 2; ++k) {
+        const ElementResult& f = *row[k];
+        finer_show_bars = finer_show_bars && resolved(f) && f.m - m > 3 * std::hypot(f.m_sigma, sigma);
+      }
+      if (!finer_show_bars) continue;
+      const ElementResult &f1 = *row[i + 1], &f2 = *row[i + 2];
+      e.note = fmt::format(
+          "{}; the finer G{}E{} and G{}E{} read m = {:.2f} and {:.2f}: a local defect over this element (dust, a "
+          "scratch, the field's blurred edge), not the optics; left out of the limit",
+          e.status == ElementStatus::aliased ? std::string("its profile does not show the element's bars")
+                                             : fmt::format("its bars read m = {:.2f} +- {:.2f}", m, sigma),
+          f1.group, f1.element, f2.group, f2.element, f1.m, f2.m);
+      e.status = ElementStatus::damaged;
+    }
+  }
 }
 
 void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,

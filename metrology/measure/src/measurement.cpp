@@ -13,6 +13,7 @@ const char* to_string(ElementStatus s) {
     case ElementStatus::below_sampling_limit: return "below_sampling_limit";
     case ElementStatus::out_of_view: return "out_of_view";
     case ElementStatus::fit_failed: return "fit_failed";
+    case ElementStatus::damaged: return "damaged";
   }
   return "fit_failed";
 }

@@ -70,6 +70,15 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
 // one that is not resolved only because that step is too uncertain is
 // bridged by the optical limit (the detectability limit counts its CNR).
 bool is_unmeasured(const ElementResult& r, bool chart_photograph);
+
+// Chart photographs: an element that shows no bars (unresolved `ok`, or
+// `aliased`) while the next two finer elements of its orientation are
+// resolved with m significantly above its own is `damaged`: a transfer
+// function does not rise with frequency, so the loss is local (dust, a
+// scratch, a defect of the chart, the blurred edge of the field), not the
+// optics'. It is unmeasured: never resolved, bridged by the chain, and its
+// note names the finer elements. Call before decide_limits.
+void grade_damaged(Measurement& M, const Criterion& criterion);
 void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,
                    bool chart_photograph);
 

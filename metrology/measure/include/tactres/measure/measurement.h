@@ -32,6 +32,7 @@ enum class ElementStatus {
   below_sampling_limit,  // too few pixels per bar to measure
   out_of_view,           // the element's strip is not fully inside the image
   fit_failed,            // the solver failed or the fit is degenerate
+  damaged,               // shows no bars where the two finer elements do (dust, a scratch, the field's edge)
 };
 const char* to_string(ElementStatus s);
 
