@@ -276,34 +276,48 @@ void predict_column_ends(ChartDetection& D) {
   std::map<int, size_t> by_index;
   for (size_t i = 0; i < D.elements.size(); ++i) by_index[D.elements[i].relative_index] = i;
   std::vector<ChartElement> added;
+  // Element numbers are known when anchored, and also when only the
+  // arrangement is recognised (its phase fixes them and the group's parity,
+  // not the group): then a column ends at element 6 too. Unanchored and
+  // unrecognised, one step beyond three in a row is all that is known.
   const bool anchored = D.anchor != ChartAnchor::none;
+  const bool numbered = anchored || D.arrangement.recognised;
+  struct Number {
+    int group, element;
+  };
+  auto number = [&](const ChartElement& e) {
+    if (anchored) return Number{e.group, e.element};
+    const int n = D.arrangement.phase + e.relative_index;  // the group is right modulo 2
+    return Number{floor_div6(n), n - 6 * floor_div6(n) + 1};
+  };
   for (const auto& [k, i] : by_index) {
     if (by_index.count(k + 1) || !by_index.count(k - 1)) continue;
     const ChartElement &e1 = D.elements[by_index[k - 1]], &e2 = D.elements[i];
-    if (anchored && e2.element == 6) continue;  // the group's column ends here
+    const Number n1 = number(e1), n2 = number(e2);
+    if (numbered && n2.element == 6) continue;  // the group's column ends here
     const Vec2 c1 = D.patterns[e1.h].center_px, c2 = D.patterns[e2.h].center_px;
     const Vec2 d12 = c2 - c1;
-    if (!anchored) {
+    if (!numbered) {
       // One column: three in a row, the second step the first shrunk by r,
       // in the same direction.
       if (!by_index.count(k - 2)) continue;
       const Vec2 c0 = D.patterns[D.elements[by_index[k - 2]].h].center_px;
       if (norm(d12 - r * (c1 - c0)) > 0.1 * norm(d12)) continue;
     } else {
-      // Two in a row are one column only when the element numbers say so
-      // (anchored): an even group's element 1 stands apart, at the lower
-      // right; elements 2..6, and an odd group's 1..6, are one column.
-      const bool even = ((e2.group % 2) + 2) % 2 == 0;
-      if (e1.group != e2.group || (even && e1.element == 1)) continue;
+      // Two in a row are one column only when the element numbers say so:
+      // an even group's element 1 stands apart, at the lower right;
+      // elements 2..6, and an odd group's 1..6, are one column.
+      const bool even = ((n2.group % 2) + 2) % 2 == 0;
+      if (n1.group != n2.group || (even && n1.element == 1)) continue;
       // And the step is a column step: about (5 + 2.5) bar widths of e1
       // across its bars' length, i.e. along the H triplet's bars' normal.
       const double bar = 0.5 * e1.period_px;
       if (std::abs(norm(d12) / bar - (5 + mil_std::kColumnGap)) > 1.5) continue;
     }
-    // Anchored: on to the group's element 6 (the finer ones are the
-    // measured ones' neighbours, so they are modelled too); unanchored, the
+    // Numbered: on to the group's element 6 (the finer ones are the
+    // measured ones' neighbours, so they are modelled too); otherwise the
     // column's end is unknown: one step.
-    const int steps = D.anchor != ChartAnchor::none ? 6 - e2.element : 1;
+    const int steps = numbered ? 6 - n2.element : 1;
     ChartElement prev = e2, before = e1;
     for (int step = 0; step < steps; ++step) {
       ChartElement next = prev;

@@ -148,3 +148,29 @@ TEST_CASE("arrangement: refused when the elements found do not fix it") {
     CHECK_FALSE(b.D.arrangement.recognised);
   }
 }
+
+TEST_CASE("column ends: a recognised arrangement ends a column at element 6, anchored or not") {
+  // The outer pair's even group, elements 2..6 (n 1..5): its column ends at
+  // element 6, where the odd group's element 1 stands elsewhere (dev_03: a
+  // step placed below G6E6 was measured on empty ground).
+  // (One column alone does not fix the arrangement; these views take it as
+  // recognised, with the phase of element n = 1, as the whole chart would.)
+  View v;
+  Built b = build(range(1, 5), v);
+  b.D.arrangement.recognised = true;
+  b.D.arrangement.phase = 1;
+  REQUIRE(b.D.anchor == ChartAnchor::none);
+  predict_column_ends(b.D);
+  CHECK(b.D.predicted_elements == 0);
+  // Elements 2..4 of the same column found: the column runs on to element 6,
+  // two steps, not the one step of an unrecognised chart.
+  Built c = build(range(1, 3), v);
+  c.D.arrangement.recognised = true;
+  c.D.arrangement.phase = 1;
+  predict_column_ends(c.D);
+  CHECK(c.D.predicted_elements == 2);
+  // Not recognised: one step beyond three in a row.
+  Built d = build(range(1, 3), v);
+  predict_column_ends(d.D);
+  CHECK(d.D.predicted_elements == 1);
+}
