@@ -118,12 +118,25 @@ bool similar(double a, double b, double tol) { return std::abs(std::log(a / b)) 
 // direction one period (about 2 bar widths) away on either side.
 std::vector<BarPattern> find_triplets(const std::vector<Bar>& bars, bool light) {
   std::vector<BarPattern> out;
+  // The bars by x: a neighbour lies within 3 bar widths + 2 px in x, so only
+  // that slice is searched (a textured 12 Mpx frame has tens of thousands of
+  // candidates), in index order as a full scan would meet them.
+  std::vector<std::pair<double, size_t>> by_x;
+  for (size_t k = 0; k < bars.size(); ++k) by_x.push_back({bars[k].c.x, k});
+  std::sort(by_x.begin(), by_x.end());
+  std::vector<size_t> near;
   for (size_t m = 0; m < bars.size(); ++m) {
     const Bar& B = bars[m];
     const Vec2 n = perp(B.dir);
     int best[2] = {-1, -1};
     double best_cost[2] = {1e300, 1e300};
-    for (size_t k = 0; k < bars.size(); ++k) {
+    const double reach = 3 * B.width + 2;
+    near.clear();
+    for (auto it = std::lower_bound(by_x.begin(), by_x.end(), std::pair<double, size_t>{B.c.x - reach, 0});
+         it != by_x.end() && it->first <= B.c.x + reach; ++it)
+      near.push_back(it->second);
+    std::sort(near.begin(), near.end());
+    for (const size_t k : near) {
       if (k == m) continue;
       const Bar& A = bars[k];
       const Vec2 d = A.c - B.c;
