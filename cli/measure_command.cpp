@@ -81,7 +81,8 @@ std::string parts_text(const LimitBreakdown& p, bool relative = false) {
 }
 
 std::string chart_anchor_text(const ChartDetection& d) {
-  if (d.single_pattern) return "none (a single three-bar pattern; its orientation is the image's)";
+  if (d.single_pattern && d.anchor == ChartAnchor::none)
+    return "none (a single three-bar pattern; its orientation is the image's)";
   if (d.anchor == ChartAnchor::none)
     return d.arrangement.recognised
                ? "none (arrangement recognised but no group label read: the group is known modulo 2 only)"

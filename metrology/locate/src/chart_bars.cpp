@@ -192,11 +192,13 @@ void collect_bars_at(const cv::Mat& img, double margin, double min_width_px, std
   }
 }
 
-// Bars found `level` octaves down the pyramid, in full-resolution pixels.
+// Bars found `level` octaves down the pyramid, in full-resolution pixels:
+// cv::pyrDown centres small pixel x on full-resolution pixel 2x (a line at
+// x = 20 lands at 10.00), so positions scale about the origin.
 void to_full_resolution(std::vector<Bar>& bars, int level) {
   const double scale = std::exp2(level);
   for (Bar& b : bars) {
-    b.c = scale * (b.c + Vec2{0.5, 0.5}) - Vec2{0.5, 0.5};
+    b.c = scale * b.c;
     b.length *= scale;
     b.width *= scale;
   }
@@ -225,7 +227,7 @@ void collect_all_bars(const cv::Mat& img, double min_bar_px, std::vector<Bar>& d
     cv::pyrDown(level_img, level_img);
     if (std::min(level_img.cols, level_img.rows) < 32) break;
     std::vector<Bar> d, li;
-    collect_bars_at(level_img, margin(level_img), 1.5, d, li);
+    collect_bars_at(level_img, margin(level_img), std::max(1.5, 0.8 * min_bar_px * std::exp2(-level)), d, li);
     to_full_resolution(d, level);
     to_full_resolution(li, level);
     dark.insert(dark.end(), d.begin(), d.end());

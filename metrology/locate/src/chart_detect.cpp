@@ -258,24 +258,34 @@ void anchor_by_arrangement(ChartDetection& D, const std::vector<ChartElement>& k
   }
 }
 
-// The absolute index of relative index 0 (D.largest_index), from the
-// options or else the arrangement, and what fixed it.
-void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const ScaleField& field,
-            const ChartDetectOptions& options, const cv::Mat& img) {
+// The absolute index of relative index 0 from --px-per-mm or
+// --largest-group, if given; `largest_period_px` is that element's period.
+bool anchor_by_options(ChartDetection& D, double largest_period_px, const ChartDetectOptions& options) {
   if (options.px_per_mm) {
     // The largest element's frequency: px/mm over its period in px.
-    const double lp_per_mm = *options.px_per_mm / kept.front().period_px;
+    const double lp_per_mm = *options.px_per_mm / largest_period_px;
     D.largest_index = static_cast<int>(std::lround(6 * std::log2(lp_per_mm)));
     D.anchor = ChartAnchor::px_per_mm;
     D.anchor_description = fmt::format(
         "--px-per-mm {:g}: the largest element found ({:.2f} px per line pair) is {:.3g} lp/mm", *options.px_per_mm,
-        kept.front().period_px, lp_per_mm);
-  } else if (options.largest_group) {
+        largest_period_px, lp_per_mm);
+    return true;
+  }
+  if (options.largest_group) {
     D.largest_index = 6 * *options.largest_group + options.largest_element - 1;
     D.anchor = ChartAnchor::largest_group;
     D.anchor_description = fmt::format("--largest-group {}: the largest element found is group {} element {}",
                                        *options.largest_group, *options.largest_group, options.largest_element);
-  } else {
+    return true;
+  }
+  return false;
+}
+
+// The absolute index of relative index 0 (D.largest_index), from the
+// options or else the arrangement, and what fixed it.
+void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const ScaleField& field,
+            const ChartDetectOptions& options, const cv::Mat& img) {
+  if (!anchor_by_options(D, kept.front().period_px, options)) {
     D.largest_index = 0;
     D.anchor = ChartAnchor::none;
     const std::string relative =
@@ -349,26 +359,40 @@ void add_partial_elements(ChartDetection& D, const std::vector<int>& lone, const
             [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
 }
 
-// ChartDetection::single_pattern: the one large pattern, if it is the only
-// pattern of at least half its period; measured in the image's orientation.
-bool single_pattern_element(ChartDetection& D) {
-  int best = -1;
-  for (size_t k = 0; k < D.patterns.size(); ++k)
-    if (best < 0 || D.patterns[k].period_px > D.patterns[best].period_px) best = static_cast<int>(k);
-  if (best < 0 || D.patterns[best].period_px < 2 * ChartDetection::kSinglePatternMinBarPx) return false;
-  for (size_t k = 0; k < D.patterns.size(); ++k)
-    if (static_cast<int>(k) != best && D.patterns[k].period_px > 0.5 * D.patterns[best].period_px) return false;
-  const BarPattern& p = D.patterns[best];
-  ChartElement e;
-  (std::abs(p.bar_dir.x) >= std::abs(p.bar_dir.y) ? e.h : e.v) = best;
-  e.period_px = p.period_px;
-  D.elements = {e};
-  D.single_pattern = true;
-  D.unpaired_patterns = 0;
-  D.anchor_description =
-      "none (a single three-bar pattern: indices count from it, called G0E1; its orientation is the image's)";
-  D.found = true;
-  return true;
+// ChartDetection::single_pattern: the one large pattern of either polarity,
+// if it is the only pattern of at least half its period; measured in the
+// image's orientation, anchored only by the options.
+bool single_pattern_element(ChartDetection& D, const PatternsFound& found, const ChartDetectOptions& options) {
+  for (const bool light : {D.light_bars, !D.light_bars}) {
+    const std::vector<BarPattern>& P = light ? found.light : found.dark;
+    int best = -1;
+    for (size_t k = 0; k < P.size(); ++k)
+      if (best < 0 || P[k].period_px > P[best].period_px) best = static_cast<int>(k);
+    if (best < 0 || P[best].period_px < 2 * ChartDetection::kSinglePatternMinBarPx) continue;
+    bool alone = true;
+    for (size_t k = 0; k < P.size(); ++k)
+      alone = alone && (static_cast<int>(k) == best || P[k].period_px <= 0.5 * P[best].period_px);
+    if (!alone) continue;
+    D.light_bars = light;
+    D.patterns = P;
+    const BarPattern& p = P[best];
+    ChartElement e;
+    (std::abs(p.bar_dir.x) >= std::abs(p.bar_dir.y) ? e.h : e.v) = best;
+    e.period_px = p.period_px;
+    D.unpaired_patterns = static_cast<int>(P.size()) - 1;
+    if (!anchor_by_options(D, p.period_px, options)) {
+      D.largest_index = 0;
+      D.anchor_description =
+          "none (a single three-bar pattern: indices count from it, called G0E1; its orientation is the image's)";
+    }
+    e.group = floor_div6(D.largest_index);
+    e.element = D.largest_index - 6 * e.group + 1;
+    D.elements = {e};
+    D.single_pattern = true;
+    D.found = true;
+    return true;
+  }
+  return false;
 }
 
 }  // namespace
@@ -402,7 +426,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   D.unpaired_patterns = pairing.unpaired;
   std::vector<ChartElement> elements = std::move(pairing.elements);
   const double separation_periods = drop_odd_separations(D, elements);
-  if (elements.empty() && single_pattern_element(D)) return D;
+  if (elements.empty() && single_pattern_element(D, found, options)) return D;
   if (elements.empty()) {
     D.problem = D.patterns.empty()
                     ? "no USAF-1951 chart found: no three-bar pattern in the image (is the chart in view, in "

@@ -116,15 +116,15 @@ namespace {
 
 // One triplet of bars `bar_px` wide and 5 bar widths long, dark on a
 // noisy bright ground, bars along image x when `along_x`.
-cv::Mat single_triplet(double bar_px, bool along_x, unsigned seed) {
+cv::Mat single_triplet(double bar_px, bool along_x, unsigned seed, bool light = false) {
   cv::Mat img(400, 400, CV_32F);
   cv::RNG rng(seed);
-  rng.fill(img, cv::RNG::NORMAL, 0.6, 0.05);
+  rng.fill(img, cv::RNG::NORMAL, light ? 0.1 : 0.6, 0.05);
   for (int k = -1; k <= 1; ++k) {
     const double c = 200 + 2 * k * bar_px;
     cv::Rect2d r(c - 0.5 * bar_px, 200 - 2.5 * bar_px, bar_px, 5 * bar_px);  // vertical bars
     if (along_x) r = cv::Rect2d(r.y, r.x, r.height, r.width);
-    img(cv::Rect(r)).setTo(0.1);
+    img(cv::Rect(r)).setTo(light ? 0.6 : 0.1);
   }
   cv::GaussianBlur(img, img, {0, 0}, 1.0);
   return img;
@@ -144,7 +144,30 @@ TEST_CASE("chart detection: a frame holding one large triplet is measured as a s
     CHECK((along_x ? e.v : e.h) == -1);
     CHECK(e.period_px == doctest::Approx(40).epsilon(0.05));
     CHECK(d.anchor == ChartAnchor::none);
+    // Where it is, whichever pyramid level found it: the bars' pixels are
+    // centred on (199.5, 199.5). Two octaves down (where 20 px bars are
+    // found) a blob's centroid is good to about a tenth of a pixel there,
+    // 0.4 px here; mapped back with the wrong pixel-centre convention it
+    // was 1.5 px off.
+    const Vec2 c = d.patterns[along_x ? e.h : e.v].center_px;
+    CAPTURE(c.x);
+    CAPTURE(c.y);
+    CHECK(norm(c - Vec2{199.5, 199.5}) < 0.6);
   }
+  // Light bars on a dark ground (a negative chart, a fluorescent target).
+  const ChartDetection light = detect_chart(single_triplet(20, false, 5, true), {});
+  REQUIRE(light.found);
+  CHECK(light.single_pattern);
+  CHECK(light.light_bars);
+  // --largest-group anchors it.
+  ChartDetectOptions o;
+  o.largest_group = 2;
+  o.largest_element = 2;
+  const ChartDetection anchored = detect_chart(single_triplet(20, true, 6), o);
+  REQUIRE(anchored.found);
+  CHECK(anchored.anchor == ChartAnchor::largest_group);
+  CHECK(anchored.elements.front().group == 2);
+  CHECK(anchored.elements.front().element == 2);
   // A small triplet alone is not a chart: such patterns turn up in texture.
   const ChartDetection small = detect_chart(single_triplet(5, false, 4), {});
   CHECK_FALSE(small.found);

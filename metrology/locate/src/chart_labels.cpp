@@ -228,8 +228,9 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept, c
 // The detection as seen `levels` octaves down a Gaussian pyramid.
 ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, int levels) {
   const double f = std::exp2(-levels);
-  auto to_small = [&](Vec2 p) { return f * (p + Vec2{0.5, 0.5}) - Vec2{0.5, 0.5}; };
+  auto to_small = [&](Vec2 p) { return f * p; };  // cv::pyrDown: small x sits on full 2x
   ChartDetection S = D;
+  for (ChartElement& e : S.elements) e.period_px *= f;
   for (BarPattern& p : S.patterns) {
     p.center_px = to_small(p.center_px);
     p.period_px *= f;
@@ -244,7 +245,8 @@ ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, 
 
 // Numbers several times larger than OCR needs (a single element filling a
 // 4K frame: bars 280 px wide) are read octaves down a Gaussian pyramid,
-// where the finest element's bars are still >= 8 px wide: finding and
+// where the finest element's bars are still >= 12 px wide (a number is
+// 2-4 bar widths tall, and shorter than kMinLabelCharPx is no evidence): finding and
 // reading label boxes costs in proportion to their area (3.9 s of dev_07's
 // 5.5 s detection, full size), and the reader scales every patch to a
 // 36 px character anyway.
@@ -253,7 +255,7 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   double bar_px = 1e300;
   for (const ChartElement& e : kept) bar_px = std::min(bar_px, 0.5 * e.period_px);
   int levels = 0;
-  while (bar_px * std::exp2(-(levels + 1)) >= 8 && std::min(img.cols, img.rows) >> (levels + 1) >= 64) ++levels;
+  while (bar_px * std::exp2(-(levels + 1)) >= 12 && std::min(img.cols, img.rows) >> (levels + 1) >= 64) ++levels;
   if (levels == 0) return anchor_at_scale(D, kept, img, phase, note);
   cv::Mat small = img;
   for (int l = 0; l < levels; ++l) cv::pyrDown(small, small);

@@ -59,9 +59,12 @@ std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_wid
   const double b1 = det > 0 ? (n * suv - su * sv) / det : 0;
   const double b0 = (sv - b1 * su) / n;
   std::vector<double> sum(bars, 0), count(bars, 0);
+  const double mean_ground = sv / n;
   for (const InkBin& k : ink) {
+    // The line is extrapolated at most across the triplet: a ground that
+    // falls far below its mean there is a misfit, not light.
     const double ground = b0 + b1 * k.u;
-    if (!(ground > 0)) return std::nullopt;
+    if (!(ground > 0.2 * mean_ground) || !(mean_ground > 0)) return std::nullopt;
     sum[k.bar] += k.v / ground;
     count[k.bar] += 1;
   }
@@ -72,6 +75,9 @@ std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_wid
   // One bar's ratio stands for all: at least 1 % of the step, so that three
   // bars that happen to agree do not claim more than a print achieves.
   const double sigma = std::max(sd / std::sqrt(double(bars)), 0.01 * std::abs(mean - 1));
+  // Ink reflects no less than nothing: a step below -1 (or a non-finite
+  // one) means the plateaus are not where the ideal says.
+  if (!std::isfinite(mean) || !std::isfinite(sigma) || mean - 1 < -1.02) return std::nullopt;
   return LevelStep{mean - 1, sigma, 0};
 }
 

@@ -147,27 +147,33 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
     auto resolved = [&](const ElementResult& r) {
       return r.status == ElementStatus::ok && is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
     };
+    const double step = std::exp2(1.0 / 6);  // one element finer
     for (size_t i = 0; i + 2 < row.size(); ++i) {
       ElementResult& e = *row[i];
       if (resolved(e)) continue;
-      // aliased: no bars at all; low_signal: m driven to 0 (m_sigma collapsed)
-      // or too uncertain, and then it cannot be told from its neighbours.
-      if (e.status == ElementStatus::low_signal && e.m_sigma > 0.25) continue;
-      const double m = e.status == ElementStatus::aliased ? 0.0 : e.m;
-      const double sigma = e.status == ElementStatus::aliased ? 0.0 : e.m_sigma;
-      // Both finer ones resolved, and each 3 combined sigma above this one.
+      // ok and unresolved: its m and sigma; aliased (no bars at all) and
+      // low_signal (here: m driven to 0, its error not estimable): m = 0.
+      const bool fitted = e.status == ElementStatus::ok;
+      const double m = fitted ? e.m : 0.0, sigma = fitted ? e.m_sigma : 0.0;
+      // The next two elements of the series, both resolved, each 3 combined
+      // sigma above this one and at m >= 0.3: past a defocus disc's first
+      // zero the bars come back contrast-reversed, but at m of 0.13-0.22
+      // at most, which a pattern locked half a period off could read.
       bool finer_show_bars = true;
       for (size_t k = i + 1; k <= i + 2; ++k) {
         const ElementResult& f = *row[k];
-        finer_show_bars = finer_show_bars && resolved(f) && f.m - m > 3 * std::hypot(f.m_sigma, sigma);
+        const bool next_in_series = std::abs(f.lp_per_mm / e.lp_per_mm / std::pow(step, double(k - i)) - 1) < 0.03;
+        finer_show_bars = finer_show_bars && next_in_series && resolved(f) && f.m >= 0.3 &&
+                          f.m - m > 3 * std::hypot(f.m_sigma, sigma);
       }
       if (!finer_show_bars) continue;
       const ElementResult &f1 = *row[i + 1], &f2 = *row[i + 2];
       e.note = fmt::format(
           "{}; the finer G{}E{} and G{}E{} read m = {:.2f} and {:.2f}: a local defect over this element (dust, a "
           "scratch, the field's blurred edge), not the optics; left out of the limit",
-          e.status == ElementStatus::aliased ? std::string("its profile does not show the element's bars")
-                                             : fmt::format("its bars read m = {:.2f} +- {:.2f}", m, sigma),
+          fitted ? fmt::format("its bars read m = {:.2f} +- {:.2f}", m, sigma)
+                 : std::string(e.status == ElementStatus::aliased ? "its profile does not show the element's bars"
+                                                                  : "the fit drives its m to 0"),
           f1.group, f1.element, f2.group, f2.element, f1.m, f2.m);
       e.status = ElementStatus::damaged;
     }
