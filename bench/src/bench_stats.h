@@ -1,11 +1,11 @@
 #pragma once
-// The bench's clocks and order statistics, shared by the suite's run
-// (bench_run.cpp) and the live figures (bench_live.cpp). Internal to the
-// bench module.
+// The bench's clocks and order statistics (util/order_stats.h), shared by
+// the suite's run (bench_run.cpp) and the live figures (bench_live.cpp).
+// Internal to the bench module.
 
-#include <algorithm>
 #include <ctime>
-#include <vector>
+
+#include "tactres/util/order_stats.h"
 
 namespace tactres::bench_stats {
 
@@ -16,20 +16,8 @@ inline double thread_cpu_ms() {
   return 1e3 * double(ts.tv_sec) + 1e-6 * double(ts.tv_nsec);
 }
 
-// Percentile with linear interpolation between order statistics (the
-// "type 7" definition of R and NumPy's default). `v` must not be empty.
-inline double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  const double x = p * double(v.size() - 1);
-  const size_t i = size_t(x);
-  if (i + 1 >= v.size()) return v.back();
-  return v[i] + (x - double(i)) * (v[i + 1] - v[i]);
-}
-inline double median(const std::vector<double>& v) { return v.empty() ? 0.0 : percentile(v, 0.5); }
-inline double mean(const std::vector<double>& v) {
-  double sum = 0;
-  for (double x : v) sum += x;
-  return v.empty() ? 0.0 : sum / double(v.size());
-}
+using tactres::mean;
+using tactres::median;
+using tactres::percentile;
 
 }  // namespace tactres::bench_stats

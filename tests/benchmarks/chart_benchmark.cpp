@@ -10,13 +10,13 @@
 // rest), which is what a batch or a live sequence pays per frame.
 // Run: ./build/tests/tactres_chart_benchmark [REPS [FILE...]]
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
 
 #include <opencv2/core.hpp>
 
+#include "benchmark_timing.h"
 #include "scene_fixtures.h"
 #include "tactres/measure/chart_measure.h"
 #include "tactres/targets/mil_std_chart.h"
@@ -25,18 +25,6 @@ using namespace tactres;
 using namespace tactres::testing;
 
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
-template <class F>
-double seconds_of(F&& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // The generated chart, groups 0-5, filling most of a 1536 x 1024 frame at
 // about 47 px/mm, Gaussian blur 1.2 px and 40 dB of noise, as an 8-bit PNG.

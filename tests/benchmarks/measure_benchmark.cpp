@@ -5,25 +5,16 @@
 // at most 20 ms.
 // Run: ./build/tests/tactres_measure_benchmark [REPS]
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <map>
 
 #include <opencv2/core.hpp>
 
+#include "benchmark_timing.h"
 #include "scene_fixtures.h"
 
 using namespace tactres;
 using namespace tactres::testing;
-
-namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::max(3, std::atoi(argv[1])) : 15;
@@ -49,9 +40,7 @@ int main(int argc, char** argv) {
     std::vector<double> decode;
     LoadedImage img;
     for (int i = 0; i < reps; ++i) {
-      const auto t0 = std::chrono::steady_clock::now();
-      img = load_image(file);
-      decode.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      decode.push_back(seconds_of([&] { img = load_image(file); }));
     }
     std::printf("%s: OpenImageIO decode %.1f ms\n", label.c_str(), 1e3 * median(decode));
     for (Preset p : {Preset::fast, Preset::balanced, Preset::precise}) {
@@ -60,9 +49,7 @@ int main(int argc, char** argv) {
       std::map<std::string, std::vector<double>> stages;
       Measurement m;
       for (int i = 0; i < reps; ++i) {
-        const auto t0 = std::chrono::steady_clock::now();
-        m = measure_capture(img, default_layout(), &wide_angle_camera(), o);
-        total.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        total.push_back(seconds_of([&] { m = measure_capture(img, default_layout(), &wide_angle_camera(), o); }));
         for (const auto& [stage, s] : m.stage_seconds) stages[stage].push_back(s);
       }
       if (!m.usable) {

@@ -192,13 +192,11 @@ void collect_bars_at(const cv::Mat& img, double margin, double min_width_px, std
   }
 }
 
-// Bars found `level` octaves down the pyramid, in full-resolution pixels:
-// cv::pyrDown centres small pixel x on full-resolution pixel 2x (a line at
-// x = 20 lands at 10.00), so positions scale about the origin.
+// Bars found `level` octaves down the pyramid, in full-resolution pixels.
 void to_full_resolution(std::vector<Bar>& bars, int level) {
   const double scale = std::exp2(level);
   for (Bar& b : bars) {
-    b.c = scale * b.c;
+    b.c = from_octave(b.c, level);
     b.length *= scale;
     b.width *= scale;
   }

@@ -5,6 +5,7 @@
 //                          elements, the group labels, the column ends
 //   chart_detect.cpp       the rest: indices, anchor, partial elements
 
+#include <cmath>
 #include <optional>
 #include <vector>
 
@@ -17,6 +18,12 @@
 namespace tactres::locate_detail {
 
 inline Vec2 perp(Vec2 d) { return {-d.y, d.x}; }
+
+// A pixel position `octaves` levels down a cv::pyrDown pyramid, seen at full
+// resolution (negative: a full-resolution position seen that far down).
+// pyrDown centres small pixel x on full pixel 2x (a line at x = 20 lands at
+// 10.00), so positions scale about the origin, not about pixel centres.
+inline Vec2 from_octave(Vec2 p, int octaves) { return std::exp2(octaves) * p; }
 
 // floor(n / 6) for any sign of n: the group of series index n = 6 g + e - 1.
 inline int floor_div6(int n) { return n >= 0 ? n / 6 : -((-n + 5) / 6); }

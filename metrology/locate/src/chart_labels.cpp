@@ -218,56 +218,7 @@ std::optional<Choice> choose_with_phase(const std::vector<std::pair<Choice, std:
   return best;
 }
 
-}  // namespace
-
-namespace {
-
-bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
-                     std::optional<int> phase, std::string& note);
-
-// The detection as seen `levels` octaves down a Gaussian pyramid.
-ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, int levels) {
-  const double f = std::exp2(-levels);
-  auto to_small = [&](Vec2 p) { return f * p; };  // cv::pyrDown: small x sits on full 2x
-  ChartDetection S = D;
-  for (ChartElement& e : S.elements) e.period_px *= f;
-  for (BarPattern& p : S.patterns) {
-    p.center_px = to_small(p.center_px);
-    p.period_px *= f;
-    p.bar_length_px *= f;
-    for (Vec2& b : p.bar_centers_px) b = to_small(b);
-  }
-  for (ChartElement& e : kept) e.period_px *= f;
-  return S;
-}
-
-}  // namespace
-
-// Numbers several times larger than OCR needs (a single element filling a
-// 4K frame: bars 280 px wide) are read octaves down a Gaussian pyramid,
-// where the finest element's bars are still >= 12 px wide (a number is
-// 2-4 bar widths tall, and shorter than kMinLabelCharPx is no evidence): finding and
-// reading label boxes costs in proportion to their area (3.9 s of dev_07's
-// 5.5 s detection, full size), and the reader scales every patch to a
-// 36 px character anyway.
-bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
-                               std::optional<int> phase, std::string& note) {
-  double bar_px = 1e300;
-  for (const ChartElement& e : kept) bar_px = std::min(bar_px, 0.5 * e.period_px);
-  int levels = 0;
-  while (bar_px * std::exp2(-(levels + 1)) >= 12 && std::min(img.cols, img.rows) >> (levels + 1) >= 64) ++levels;
-  if (levels == 0) return anchor_at_scale(D, kept, img, phase, note);
-  cv::Mat small = img;
-  for (int l = 0; l < levels; ++l) cv::pyrDown(small, small);
-  std::vector<ChartElement> kept_small = kept;
-  ChartDetection S = halved(D, kept_small, levels);
-  const bool anchored = anchor_at_scale(S, kept_small, small, phase, note);
-  D.largest_index = S.largest_index;
-  return anchored;
-}
-
-namespace {
-
+// The anchor from the numbers read in `img` at the detection's own scale.
 bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
                      std::optional<int> phase, std::string& note) {
   std::string error;
@@ -323,6 +274,45 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept, c
   return true;
 }
 
+// The detection as seen `levels` octaves down a Gaussian pyramid.
+ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, int levels) {
+  const double f = std::exp2(-levels);
+  auto to_small = [&](Vec2 p) { return from_octave(p, -levels); };
+  ChartDetection S = D;
+  for (ChartElement& e : S.elements) e.period_px *= f;
+  for (BarPattern& p : S.patterns) {
+    p.center_px = to_small(p.center_px);
+    p.period_px *= f;
+    p.bar_length_px *= f;
+    for (Vec2& b : p.bar_centers_px) b = to_small(b);
+  }
+  for (ChartElement& e : kept) e.period_px *= f;
+  return S;
+}
+
 }  // namespace
+
+// Numbers several times larger than OCR needs (a single element filling a
+// 4K frame: bars 280 px wide) are read octaves down a Gaussian pyramid,
+// where the finest element's bars are still >= 12 px wide (a number is
+// 2-4 bar widths tall, and shorter than kMinLabelCharPx is no evidence): finding and
+// reading label boxes costs in proportion to their area (3.9 s of dev_07's
+// 5.5 s detection, full size), and the reader scales every patch to a
+// 36 px character anyway.
+bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
+                               std::optional<int> phase, std::string& note) {
+  double bar_px = 1e300;
+  for (const ChartElement& e : kept) bar_px = std::min(bar_px, 0.5 * e.period_px);
+  int levels = 0;
+  while (bar_px * std::exp2(-(levels + 1)) >= 12 && std::min(img.cols, img.rows) >> (levels + 1) >= 64) ++levels;
+  if (levels == 0) return anchor_at_scale(D, kept, img, phase, note);
+  cv::Mat small = img;
+  for (int l = 0; l < levels; ++l) cv::pyrDown(small, small);
+  std::vector<ChartElement> kept_small = kept;
+  ChartDetection S = halved(D, kept_small, levels);
+  const bool anchored = anchor_at_scale(S, kept_small, small, phase, note);
+  D.largest_index = S.largest_index;
+  return anchored;
+}
 
 }  // namespace tactres::locate_detail

@@ -135,6 +135,16 @@ bool is_unmeasured(const ElementResult& r, bool chart_photograph) {
          (chart_photograph && (s == ElementStatus::out_of_view || r.m_undetermined));
 }
 
+namespace {
+
+// Fitted and resolved by the criterion: what ElementResult::resolved says.
+bool ok_and_resolved(const ElementResult& r, const Criterion& criterion) {
+  return r.status == ElementStatus::ok &&
+         is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
+}
+
+}  // namespace
+
 void grade_damaged(Measurement& M, const Criterion& criterion) {
   for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
     std::vector<ElementResult*> row;  // this orientation's fitted elements, coarse to fine
@@ -144,13 +154,10 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
         row.push_back(&r);
     std::stable_sort(row.begin(), row.end(),
                      [](const ElementResult* a, const ElementResult* b) { return a->lp_per_mm < b->lp_per_mm; });
-    auto resolved = [&](const ElementResult& r) {
-      return r.status == ElementStatus::ok && is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
-    };
     const double step = std::exp2(1.0 / 6);  // one element finer
     for (size_t i = 0; i + 2 < row.size(); ++i) {
       ElementResult& e = *row[i];
-      if (resolved(e)) continue;
+      if (ok_and_resolved(e, criterion)) continue;
       // ok and unresolved: its m and sigma; aliased (no bars at all) and
       // low_signal (here: m driven to 0, its error not estimable): m = 0.
       const bool fitted = e.status == ElementStatus::ok;
@@ -163,7 +170,7 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
       for (size_t k = i + 1; k <= i + 2; ++k) {
         const ElementResult& f = *row[k];
         const bool next_in_series = std::abs(f.lp_per_mm / e.lp_per_mm / std::pow(step, double(k - i)) - 1) < 0.03;
-        finer_show_bars = finer_show_bars && next_in_series && resolved(f) && f.m >= 0.3 &&
+        finer_show_bars = finer_show_bars && next_in_series && ok_and_resolved(f, criterion) && f.m >= 0.3 &&
                           f.m - m > 3 * std::hypot(f.m_sigma, sigma);
       }
       if (!finer_show_bars) continue;
@@ -202,8 +209,7 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
     (h ? M.horizontal : M.vertical) = parts.reported();
   }
   for (ElementResult& r : M.elements) {
-    r.resolved = r.status == ElementStatus::ok &&
-                 is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
+    r.resolved = ok_and_resolved(r, criterion);
     r.detectable = r.status == ElementStatus::ok &&
                    is_detectable({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, true}, detectability);
   }
