@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -345,8 +346,148 @@ void predict_column_ends(ChartDetection& D) {
       prev = next;
     }
   }
-  D.predicted_elements = static_cast<int>(added.size());
+  D.predicted_elements += static_cast<int>(added.size());
   for (const ChartElement& e : added) D.elements.push_back(e);
+  std::sort(D.elements.begin(), D.elements.end(),
+            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+}
+
+namespace {
+
+// The arrangement nests: each pair of groups is the pair two groups coarser
+// (12 indices) scaled by 1/4 about one point of the chart, on the makers'
+// charts and the generated one alike.
+constexpr int kPairIndices = 12;
+constexpr double kPairScale = 0.25;
+
+BarPattern nested_pattern(const BarPattern& p, Vec2 centre_px) {
+  BarPattern q = p;
+  q.center_px = centre_px + kPairScale * (p.center_px - centre_px);
+  q.period_px *= kPairScale;
+  q.bar_length_px *= kPairScale;
+  for (Vec2& b : q.bar_centers_px) b = centre_px + kPairScale * (b - centre_px);
+  q.predicted = true;
+  return q;
+}
+
+// A fine element that lies where the coarse element `delta` indices off its
+// own index, less 12, nests about `centre`: both patterns within a quarter
+// of its period of the coarse ones' nested images.
+bool nests(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse, Vec2 centre) {
+  const double tolerance_px = 0.25 * fine.period_px;
+  return norm(nested_pattern(D.patterns[coarse.h], centre).center_px - D.patterns[fine.h].center_px) <= tolerance_px &&
+         norm(nested_pattern(D.patterns[coarse.v], centre).center_px - D.patterns[fine.v].center_px) <= tolerance_px;
+}
+
+// The centre that element `fine` and the coarse one give: the mean of what
+// its two patterns give (fine = c + (coarse - c) / 4).
+Vec2 centre_from(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse) {
+  const auto one = [&](int f, int c) {
+    return (1 / (1 - kPairScale)) * (D.patterns[f].center_px - kPairScale * D.patterns[c].center_px);
+  };
+  return 0.5 * (one(fine.h, coarse.h) + one(fine.v, coarse.v));
+}
+
+// Which index offset (-1, 0, +1; 0 for a well-sampled element, whose
+// period is trusted) makes `fine` nest about `centre`, or nullopt.
+std::optional<int> nesting_offset(const ChartDetection& D, const std::vector<ChartElement>& E,
+                                  const std::map<int, size_t>& coarse, size_t fine, Vec2 centre) {
+  const ChartElement& f = E[fine];
+  for (int delta : {0, -1, 1}) {
+    if (delta != 0 && f.period_px >= kWellSampledPeriodPx) break;
+    const auto c = coarse.find(f.relative_index + delta - kPairIndices);
+    if (c != coarse.end() && c->second != fine && nests(D, f, E[c->second], centre)) return delta;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElement>& E) {
+  std::map<int, size_t> coarse;  // well-sampled elements by index: their indices are trusted
+  for (size_t i = 0; i < E.size(); ++i)
+    if (E[i].period_px >= kWellSampledPeriodPx) coarse[E[i].relative_index] = i;
+  // Candidates: every fine element against the coarse ones 11-13 indices
+  // coarser; the one most elements nest about wins.
+  std::optional<Vec2> best;
+  std::vector<std::pair<size_t, int>> best_inliers;
+  for (size_t i = 0; i < E.size(); ++i)
+    for (int delta : {0, -1, 1}) {
+      const auto c = coarse.find(E[i].relative_index + delta - kPairIndices);
+      if (c == coarse.end() || c->second == i) continue;
+      const Vec2 candidate = centre_from(D, E[i], E[c->second]);
+      std::vector<std::pair<size_t, int>> inliers;
+      for (size_t j = 0; j < E.size(); ++j)
+        if (const auto d = nesting_offset(D, E, coarse, j, candidate)) inliers.push_back({j, *d});
+      if (inliers.size() > best_inliers.size()) best = candidate, best_inliers = std::move(inliers);
+    }
+  if (best_inliers.size() < 2) return std::nullopt;
+  // The centre from all that nest; then each fine element takes the index
+  // of the nested image it lies on, where that keeps the indices unique.
+  Vec2 sum{0, 0};
+  for (const auto& [j, delta] : best_inliers)
+    sum = sum + centre_from(D, E[j], E[coarse.at(E[j].relative_index + delta - kPairIndices)]);
+  const Vec2 centre = (1.0 / double(best_inliers.size())) * sum;
+  std::map<int, size_t> held;
+  for (size_t i = 0; i < E.size(); ++i) held[E[i].relative_index] = i;
+  for (const auto& [j, delta] : best_inliers) {
+    const int k = E[j].relative_index + delta;
+    if (delta == 0 || held.count(k)) continue;
+    held.erase(E[j].relative_index);
+    held[k] = j;
+    E[j].relative_index = k;
+  }
+  std::sort(E.begin(), E.end(),
+            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+  return centre;
+}
+
+// See ChartDetection::predicted_elements.
+void predict_nested_pairs(ChartDetection& D, Vec2 centre, int cols, int rows) {
+  // Only into a pair of groups that shows an element found: the chart's
+  // finest pair is followed by empty ground, not by another. Which pair an
+  // index is in needs the element numbers: anchored, or the arrangement's
+  // phase (pairs start at an even group's element 1, n = 0 modulo 12).
+  const bool anchored = D.anchor != ChartAnchor::none;
+  if (!anchored && !D.arrangement.recognised) return;
+  const int origin = anchored ? D.largest_index : D.arrangement.phase;
+  const auto pair_of = [&](int k) {
+    const int n = origin + k;
+    return n >= 0 ? n / kPairIndices : -((-n + kPairIndices - 1) / kPairIndices);
+  };
+  std::vector<ChartElement> all = D.elements;  // coarse to fine, so that a prediction can predict the next pair
+  std::map<int, size_t> held;
+  std::set<int> pairs_found;
+  for (size_t i = 0; i < all.size(); ++i) {
+    held[all[i].relative_index] = i;
+    if (!D.patterns[all[i].h].predicted) pairs_found.insert(pair_of(all[i].relative_index));
+  }
+  int added = 0;
+  for (size_t i = 0; i < all.size(); ++i) {
+    const ChartElement coarse = all[i];
+    if (coarse.h < 0 || coarse.v < 0 || held.count(coarse.relative_index + kPairIndices)) continue;
+    ChartElement e = coarse;
+    e.relative_index += kPairIndices;
+    if (!pairs_found.count(pair_of(e.relative_index))) continue;
+    e.period_px *= kPairScale;
+    e.group += 2;
+    if (0.5 * e.period_px < 0.8) continue;  // far below sampling: nothing to measure
+    const BarPattern h = nested_pattern(D.patterns[coarse.h], centre), v = nested_pattern(D.patterns[coarse.v], centre);
+    const auto inside = [&](const BarPattern& p) {
+      const double r = p.bar_length_px;
+      return p.center_px.x >= r && p.center_px.y >= r && p.center_px.x <= cols - 1 - r && p.center_px.y <= rows - 1 - r;
+    };
+    if (!inside(h) || !inside(v)) continue;
+    D.patterns.push_back(h);
+    e.h = static_cast<int>(D.patterns.size()) - 1;
+    D.patterns.push_back(v);
+    e.v = static_cast<int>(D.patterns.size()) - 1;
+    held[e.relative_index] = all.size();
+    all.push_back(e);
+    ++added;
+  }
+  D.predicted_elements += added;
+  D.elements = std::move(all);
   std::sort(D.elements.begin(), D.elements.end(),
             [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
 }

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include <doctest/doctest.h>
@@ -173,4 +175,96 @@ TEST_CASE("column ends: a recognised arrangement ends a column at element 6, anc
   Built d = build(range(1, 3), v);
   predict_column_ends(d.D);
   CHECK(d.D.predicted_elements == 1);
+}
+
+namespace {
+
+// Where element n's patterns stand in view v (the fixture's real pairs,
+// nested by kInnerPairOffset), from a build of every element.
+double true_period_px(int n, const View& v) {
+  return 2 * v.w_px * (n >= 12 ? 0.25 : 1) * std::exp2(-(n % 12) / 6.0);
+}
+
+std::pair<Vec2, Vec2> true_centres(int n, const View& v) {
+  const Built all = build(range(0, 23), v);
+  const ChartElement& e = all.D.elements[static_cast<size_t>(n)];
+  return {all.D.patterns[e.h].center_px, all.D.patterns[e.v].center_px};
+}
+
+}  // namespace
+
+TEST_CASE("nesting: the inner pair is the outer one a quarter the size, and its missing elements are placed") {
+  View v;
+  v.rotation_deg = 191;  // a turned frame (dev_01)
+  v.mirrored = true;
+  v.w_px = 16;  // the whole chart in the 1200 px frame
+  // The whole outer pair and three elements of the inner one found; the
+  // arrangement recognised with the phase of n = 0.
+  std::vector<int> ns = range(0, 11);
+  for (int n : {12, 13, 14}) ns.push_back(n);
+  Built b = build(ns, v);
+  std::vector<ChartElement> E = b.D.elements;
+  const std::optional<Vec2> centre = fit_nesting(b.D, E);
+  REQUIRE(centre);
+  CHECK(E.size() == b.D.elements.size());
+  b.D.arrangement.recognised = true;
+  b.D.arrangement.phase = 0;
+  predict_nested_pairs(b.D, *centre, 1200, 1200);
+  // The rest of the inner pair (n 15..23), where the chart has it; nothing
+  // two pairs in, where no element was found.
+  CHECK(b.D.predicted_elements == 9);
+  for (const ChartElement& e : b.D.elements) {
+    CAPTURE(e.relative_index);
+    CHECK(e.relative_index <= 23);
+    if (!b.D.patterns[e.h].predicted) continue;
+    const auto [h, vc] = true_centres(e.relative_index, v);
+    CHECK(norm(b.D.patterns[e.h].center_px - h) < 0.01);
+    CHECK(norm(b.D.patterns[e.v].center_px - vc) < 0.01);
+    CHECK(b.D.patterns[e.h].period_px == doctest::Approx(true_period_px(e.relative_index, v)));
+  }
+}
+
+TEST_CASE("nesting: a fine element that blur put one index off is re-indexed by its position") {
+  View v;
+  v.w_px = 12;  // the inner pair's periods are under 8 px, so their indices come from blurred periods
+  std::vector<int> ns = range(0, 9);
+  for (int n : {12, 13, 14, 16}) ns.push_back(n);
+  Built b = build(ns, v);
+  std::vector<ChartElement> E = b.D.elements;
+  // n = 14 taken for 15: its binarised period read a step small.
+  for (ChartElement& e : E)
+    if (e.relative_index == 14) e.relative_index = 15;
+  std::sort(E.begin(), E.end(), [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+  REQUIRE(fit_nesting(b.D, E));
+  std::vector<int> indices;
+  for (const ChartElement& e : E) indices.push_back(e.relative_index);
+  CHECK(indices == ns);
+}
+
+TEST_CASE("nesting: nothing is placed without two elements that nest, or into a pair with none found") {
+  View v;
+  // The outer pair alone: nothing nests.
+  Built outer = build(range(0, 11), v);
+  std::vector<ChartElement> E = outer.D.elements;
+  CHECK_FALSE(fit_nesting(outer.D, E));
+  // One inner element: one element is no evidence.
+  std::vector<int> ns = range(0, 11);
+  ns.push_back(13);
+  Built one = build(ns, v);
+  E = one.D.elements;
+  CHECK_FALSE(fit_nesting(one.D, E));
+  // Two inner elements, but placed off the nesting (another layout).
+  ns.push_back(14);
+  Built off = build(ns, v);
+  off.D.patterns[off.D.elements.back().h].center_px = off.D.patterns[off.D.elements.back().h].center_px + Vec2{9, 0};
+  E = off.D.elements;
+  CHECK_FALSE(fit_nesting(off.D, E));
+  // Unnumbered (no anchor, arrangement not recognised): which pair an
+  // index is in is unknown, so nothing is placed.
+  Built rel = build(range(0, 14), v);
+  E = rel.D.elements;
+  const std::optional<Vec2> centre = fit_nesting(rel.D, E);
+  REQUIRE(centre);
+  predict_nested_pairs(rel.D, *centre, 1200, 1200);
+  CHECK(rel.D.predicted_elements == 0);
 }

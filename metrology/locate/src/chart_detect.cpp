@@ -121,7 +121,7 @@ double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& 
   double offset = 0;
   int n_offset = 0;
   for (const ChartElement& e : sorted)
-    if (e.period_px >= 8) {
+    if (e.period_px >= kWellSampledPeriodPx) {
       const double x = 6 * std::log2(p0 / corrected(e));
       offset += x - std::round(x);
       ++n_offset;
@@ -136,7 +136,7 @@ double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& 
     if (!out.empty()) e.relative_index = std::max(e.relative_index, out.back().relative_index + 1);
     if (e.relative_index - x > 1.6) continue;  // far off the series: not a chart element
     out.push_back(e);
-    if (e.period_px >= 8) {  // misfit of the well-sampled ones, in steps
+    if (e.period_px >= kWellSampledPeriodPx) {  // misfit of the well-sampled ones, in steps
       const double r = e.relative_index - x;
       sum += r, sum2 += r * r, ++n;
     }
@@ -190,12 +190,12 @@ void drop_series_misfits(const ChartDetection& D, const ScaleField& field,
                          std::vector<ChartElement>& kept) {
   std::vector<double> levels;
   for (const ChartElement& e : kept)
-    if (e.period_px >= 8) levels.push_back(series_level(D, field, e));
+    if (e.period_px >= kWellSampledPeriodPx) levels.push_back(series_level(D, field, e));
   if (levels.size() < 3) return;
   std::nth_element(levels.begin(), levels.begin() + levels.size() / 2, levels.end());
   const double c0 = levels[levels.size() / 2];
   std::erase_if(kept, [&](const ChartElement& e) {
-    return e.period_px >= 8 && std::abs(series_level(D, field, e) - c0) > 0.75 * std::log(2.0) / 6;
+    return e.period_px >= kWellSampledPeriodPx && std::abs(series_level(D, field, e) - c0) > 0.75 * std::log(2.0) / 6;
   });
 }
 
@@ -205,7 +205,7 @@ double median_series_level(const ChartDetection& D, const ScaleField& field,
                            const std::vector<ChartElement>& kept) {
   std::vector<double> levels;
   for (const ChartElement& e : kept)
-    if (e.period_px >= 8) levels.push_back(series_level(D, field, e));
+    if (e.period_px >= kWellSampledPeriodPx) levels.push_back(series_level(D, field, e));
   if (levels.empty())
     for (const ChartElement& e : kept) levels.push_back(series_level(D, field, e));
   std::nth_element(levels.begin(), levels.begin() + levels.size() / 2, levels.end());
@@ -454,6 +454,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   }
   const int min_index = kept.front().relative_index;
   for (ChartElement& e : kept) e.relative_index -= min_index;
+  const std::optional<Vec2> nesting_centre_px = fit_nesting(D, kept);
   field.level0 = median_series_level(D, field, kept);
 
   anchor(D, kept, field, options, img);
@@ -464,6 +465,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   }
   D.elements = std::move(kept);
   predict_column_ends(D);
+  if (nesting_centre_px) predict_nested_pairs(D, *nesting_centre_px, img.cols, img.rows);
   add_partial_elements(D, pairing.lone, field, separation_periods, img);
   D.found = true;
   return D;

@@ -98,8 +98,24 @@ void recognise_arrangement(ChartDetection& D, const ScaleField& field);
 std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D, const ChartElement& e,
                                     int n_mod12, int parity_group, double bar_px);
 
-// See ChartDetection::predicted_elements.
+// A pattern's binarised period is trusted to index it from this size up
+// (px); a finer one's may be a step off under blur.
+constexpr double kWellSampledPeriodPx = 8;
+
+// The arrangement nests: each pair of groups is the pair two groups
+// coarser (12 indices) scaled by 1/4 about one point of the chart, on the
+// makers' charts and the generated one alike. fit_nesting finds that point
+// from the elements found 12 indices apart (E: relative indices from 0,
+// coarse to fine), and moves a fine element's index by one where its
+// position says its period misled (blur); nullopt when fewer than two
+// elements nest about one point.
+std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElement>& E);
+
+// See ChartDetection::predicted_elements: the ends of the columns found,
+// then the elements of the pairs nested inside the ones held, about
+// `centre` (cols x rows: the image, which they must lie in).
 void predict_column_ends(ChartDetection& D);
+void predict_nested_pairs(ChartDetection& D, Vec2 centre, int cols, int rows);
 
 // The anchor from the printed group and element numbers, read by OCR
 // (chart_labels.cpp): sets D.largest_index and returns true when the

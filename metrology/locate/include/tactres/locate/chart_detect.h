@@ -107,11 +107,18 @@ struct ChartDetection {
   std::string anchor_description;   // what the anchor was, in words
   int largest_index = 0;            // absolute series index 6 g + e - 1 of relative index 0
   int unpaired_patterns = 0;        // patterns found without a partner (not measured)
-  // Elements placed, not found: the element after the finest one found in a
-  // column, where three found elements in a row fix the column's geometric
-  // progression (each element 2^(-1/6) the size of the one before, and so
-  // its offset). Bars too faint to binarise are still measured there, so
-  // that the limit can be bracketed. Never past element 6 of an anchored group.
+  // Elements placed, not found (their patterns are `predicted`):
+  // - the element after the finest one found in a column, where three found
+  //   elements in a row fix the column's geometric progression (each element
+  //   2^(-1/6) the size of the one before, and so its offset); never past
+  //   element 6 of a numbered group;
+  // - the elements of a nested pair of groups: each pair is the pair two
+  //   groups coarser scaled by 1/4 about one point, fitted from the elements
+  //   found 12 indices apart (chart_detect_internal.h, fit_nesting); only
+  //   into a pair that shows an element found, and only numbered (anchored
+  //   or the arrangement recognised).
+  // Bars too faint to binarise are still measured there, so that the limit
+  // can be bracketed.
   int predicted_elements = 0;
   // Elements of which only one pattern was found (ChartElement::partial):
   // lone, well-sampled patterns whose period falls on the series at an

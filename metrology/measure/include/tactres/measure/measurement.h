@@ -48,7 +48,7 @@ struct MeasureOptions {
   double max_bins_per_bar = 10;     // coarse elements: bins no finer than w / this
   Criterion criterion;
   DetectabilityCriterion detectability;
-  double min_px_per_bar = 1.5;      // below: below_sampling_limit
+  double min_px_per_bar = 1.25;     // below: below_sampling_limit (Kell factor 0.8 of Nyquist)
   double aliasing_chi2 = 16;        // reduced chi^2 above which a fine element is aliased
   double max_m_sigma = 0.25;        // above: low_signal
   double max_patch_chi2 = 50;       // above: the capture does not match the layout
