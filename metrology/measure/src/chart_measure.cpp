@@ -25,7 +25,7 @@ using chart::PatternRef;
 
 ProfileSamplingOptions sampling_for(const MeasureOptions& mo, double px_per_bar) {
   ProfileSamplingOptions so = mo.sampling;
-  so.bin_px = std::max(so.bin_px, px_per_bar / mo.max_bins_per_bar);
+  so.bin_px = mo.bin_px_for(px_per_bar);
   return so;
 }
 

@@ -219,8 +219,7 @@ std::vector<ElementJob> layout_jobs(const TargetLayout& layout, const TargetView
     job.element = ElementResult::of(e.group, e.element, e.orientation, e.lp_per_mm,
                                     e.bar_width_mm * view.px_per_mm_across(strip.center_mm, e.orientation));
     ElementResult& r = job.element;
-    // Coarse elements need no quarter-pixel bins: cap the bins per bar.
-    job.sampling.bin_px = std::max(job.sampling.bin_px, r.px_per_bar / options.max_bins_per_bar);
+    job.sampling.bin_px = options.bin_px_for(r.px_per_bar);
     job.placements.push_back({&view, &artwork, strip});
     jobs.push_back(std::move(job));
     index.push_back(i);

@@ -1,5 +1,6 @@
 #include "tactres/measure/measurement.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace tactres {
@@ -55,6 +56,10 @@ MeasureOptions MeasureOptions::for_preset(Preset p) {
   o.pose_boundary_points = s.pose_boundary_points;
   o.max_bins_per_bar = s.max_bins_per_bar;
   return o;
+}
+
+double MeasureOptions::bin_px_for(double px_per_bar) const {
+  return std::min(std::max(sampling.bin_px, px_per_bar / max_bins_per_bar), 0.5 * px_per_bar);
 }
 
 void MeasureOptions::validate() const {

@@ -46,6 +46,12 @@ struct MeasureOptions {
   bool fit_psf_shape = true;        // fit beta (PSF shape); false: Gaussian
   int pose_boundary_points = 48;    // disc outline points in the pose model
   double max_bins_per_bar = 10;     // coarse elements: bins no finer than w / this
+  // The profile bin for an element of `px_per_bar` pixels per bar: the
+  // preset's bin, no finer than max_bins_per_bar per bar (coarse elements),
+  // and no coarser than half a bar (an element near the sampling floor
+  // binned by whole pixels loses the sub-pixel phases that pin its edges:
+  // fast's 2-sigma coverage fell to 92 % when the floor came down to 1.25).
+  double bin_px_for(double px_per_bar) const;
   Criterion criterion;
   DetectabilityCriterion detectability;
   double min_px_per_bar = 1.25;     // below: below_sampling_limit (Kell factor 0.8 of Nyquist)
