@@ -28,7 +28,7 @@ struct Level {
   double distance_mm, sigma_px;
 };
 // The last level is sampling-limited on purpose: its true limit (group 4)
-// falls where bars are narrower than the measurement's 1.5 px guard.
+// falls where bars are narrower than the measurement's 1.25 px guard.
 constexpr Level kLevels[] = {{34, 2.5}, {26, 2.5}, {26, 1.6}, {26, 1.0}, {20, 1.0}, {16, 1.0}, {13, 0.6}};
 struct Condition {
   const char* target;

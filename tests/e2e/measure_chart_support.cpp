@@ -92,7 +92,7 @@ Limits visible_truth_limits(const Truth& t, const Criterion& c) {
   std::vector<OrientedPoint> pts;
   for (const TruthElement& te : t.elements) {
     if (!te.in_view) continue;
-    pts.push_back({te.orientation, {te.group, te.element, te.lp_per_mm, te.m, 0.0, te.px_per_bar >= 1.5}});
+    pts.push_back({te.orientation, {te.group, te.element, te.lp_per_mm, te.m, 0.0, te.px_per_bar >= MeasureOptions{}.min_px_per_bar}});
   }
   return find_limits(pts, c);
 }

@@ -56,9 +56,9 @@ Vec2 pair_center(const TargetLayout& L, int g);
 const TruthElement* truth_for(const Truth& t, int g, int e, BarOrientation o);
 
 // The true limits among the elements the measurement could see: those in
-// view with at least the sampling minimum (1.5 px per bar). Elements out of
-// view are dropped, not counted as unresolved, so a view of a few groups
-// has a true limit too.
+// view with at least the sampling minimum (MeasureOptions::min_px_per_bar).
+// Elements out of view are dropped, not counted as unresolved, so a view of
+// a few groups has a true limit too.
 Limits visible_truth_limits(const Truth& t, const Criterion& c);
 
 // The acceptance checks of issue 8 for one capture. Unanchored results are

@@ -100,7 +100,7 @@ TEST_CASE("hard: elements beyond Nyquist are never resolved, even with the sampl
     if (e.px_per_bar <= 1.0) {
       CHECK(e.status == ElementStatus::below_sampling_limit);
       CHECK_FALSE(e.resolved);
-    } else if (e.px_per_bar < 1.5) {
+    } else if (e.px_per_bar < MeasureOptions{}.min_px_per_bar) {
       fitted_between += e.status != ElementStatus::below_sampling_limit ? 1 : 0;  // the lowered guard lets these through
     }
   }

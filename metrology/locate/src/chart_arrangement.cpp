@@ -324,7 +324,7 @@ void predict_column_ends(ChartDetection& D) {
       ChartElement next = prev;
       next.relative_index = prev.relative_index + 1;
       next.period_px = prev.period_px * r;
-      if (0.5 * next.period_px < 0.8) break;  // far below sampling: nothing to model or measure
+      if (0.5 * next.period_px < kMinPredictedBarPx) break;
       if (by_index.count(next.relative_index)) break;  // found after all
       const int n = D.largest_index + next.relative_index;
       next.group = floor_div6(n);
@@ -348,15 +348,12 @@ void predict_column_ends(ChartDetection& D) {
   }
   D.predicted_elements += static_cast<int>(added.size());
   for (const ChartElement& e : added) D.elements.push_back(e);
-  std::sort(D.elements.begin(), D.elements.end(),
-            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+  sort_by_index(D.elements);
 }
 
 namespace {
 
-// The arrangement nests: each pair of groups is the pair two groups coarser
-// (12 indices) scaled by 1/4 about one point of the chart, on the makers'
-// charts and the generated one alike.
+// The nesting (chart_detect_internal.h, fit_nesting): 12 indices, 1/4 the size.
 constexpr int kPairIndices = 12;
 constexpr double kPairScale = 0.25;
 
@@ -370,13 +367,12 @@ BarPattern nested_pattern(const BarPattern& p, Vec2 centre_px) {
   return q;
 }
 
-// A fine element that lies where the coarse element `delta` indices off its
-// own index, less 12, nests about `centre`: both patterns within a quarter
-// of its period of the coarse ones' nested images.
-bool nests(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse, Vec2 centre) {
+// Whether `fine` lies where `coarse` nests about centre_px: both patterns
+// within a quarter of its period of the coarse ones' nested images.
+bool nests(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse, Vec2 centre_px) {
   const double tolerance_px = 0.25 * fine.period_px;
-  return norm(nested_pattern(D.patterns[coarse.h], centre).center_px - D.patterns[fine.h].center_px) <= tolerance_px &&
-         norm(nested_pattern(D.patterns[coarse.v], centre).center_px - D.patterns[fine.v].center_px) <= tolerance_px;
+  return norm(nested_pattern(D.patterns[coarse.h], centre_px).center_px - D.patterns[fine.h].center_px) <= tolerance_px &&
+         norm(nested_pattern(D.patterns[coarse.v], centre_px).center_px - D.patterns[fine.v].center_px) <= tolerance_px;
 }
 
 // The centre that element `fine` and the coarse one give: the mean of what
@@ -388,17 +384,43 @@ Vec2 centre_from(const ChartDetection& D, const ChartElement& fine, const ChartE
   return 0.5 * (one(fine.h, coarse.h) + one(fine.v, coarse.v));
 }
 
-// Which index offset (-1, 0, +1; 0 for a well-sampled element, whose
-// period is trusted) makes `fine` nest about `centre`, or nullopt.
+// The index offsets a fine element may be off by: a well-sampled one's
+// period is trusted (0 only); a finer one's may be a step off (blur).
+std::vector<int> offsets_for(const ChartElement& e) {
+  return e.period_px >= kWellSampledPeriodPx ? std::vector<int>{0} : std::vector<int>{0, -1, 1};
+}
+
+// Which index offset makes element `fine` nest about centre_px against the
+// coarse element 12 indices (less the offset) coarser, or nullopt.
 std::optional<int> nesting_offset(const ChartDetection& D, const std::vector<ChartElement>& E,
-                                  const std::map<int, size_t>& coarse, size_t fine, Vec2 centre) {
+                                  const std::map<int, size_t>& coarse, size_t fine, Vec2 centre_px) {
   const ChartElement& f = E[fine];
-  for (int delta : {0, -1, 1}) {
-    if (delta != 0 && f.period_px >= kWellSampledPeriodPx) break;
+  for (int delta : offsets_for(f)) {
     const auto c = coarse.find(f.relative_index + delta - kPairIndices);
-    if (c != coarse.end() && c->second != fine && nests(D, f, E[c->second], centre)) return delta;
+    if (c != coarse.end() && nests(D, f, E[c->second], centre_px)) return delta;
   }
   return std::nullopt;
+}
+
+// Moves each element's index by its offset, all at once, keeping the
+// indices unique: a move onto an index another element ends up holding is
+// dropped (and so, in turn, any move that needed that one out of the way).
+void reindex(std::vector<ChartElement>& E, const std::vector<std::pair<size_t, int>>& offsets) {
+  std::vector<int> target(E.size());
+  for (size_t i = 0; i < E.size(); ++i) target[i] = E[i].relative_index;
+  for (const auto& [j, delta] : offsets) target[j] += delta;
+  for (bool changed = true; changed;) {
+    changed = false;
+    std::map<int, int> holders;
+    for (int t : target) ++holders[t];
+    for (size_t i = 0; i < E.size(); ++i)
+      if (target[i] != E[i].relative_index && holders[target[i]] > 1) {
+        target[i] = E[i].relative_index;
+        changed = true;
+      }
+  }
+  for (size_t i = 0; i < E.size(); ++i) E[i].relative_index = target[i];
+  sort_by_index(E);
 }
 
 }  // namespace
@@ -407,43 +429,33 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
   std::map<int, size_t> coarse;  // well-sampled elements by index: their indices are trusted
   for (size_t i = 0; i < E.size(); ++i)
     if (E[i].period_px >= kWellSampledPeriodPx) coarse[E[i].relative_index] = i;
-  // Candidates: every fine element against the coarse ones 11-13 indices
-  // coarser; the one most elements nest about wins.
+  // Candidates: every element against each coarse one it may nest to; the
+  // centre most elements nest about wins.
   std::optional<Vec2> best;
   std::vector<std::pair<size_t, int>> best_inliers;
   for (size_t i = 0; i < E.size(); ++i)
-    for (int delta : {0, -1, 1}) {
+    for (int delta : offsets_for(E[i])) {
       const auto c = coarse.find(E[i].relative_index + delta - kPairIndices);
-      if (c == coarse.end() || c->second == i) continue;
-      const Vec2 candidate = centre_from(D, E[i], E[c->second]);
+      if (c == coarse.end()) continue;
+      const Vec2 candidate_px = centre_from(D, E[i], E[c->second]);
       std::vector<std::pair<size_t, int>> inliers;
       for (size_t j = 0; j < E.size(); ++j)
-        if (const auto d = nesting_offset(D, E, coarse, j, candidate)) inliers.push_back({j, *d});
-      if (inliers.size() > best_inliers.size()) best = candidate, best_inliers = std::move(inliers);
+        if (const auto d = nesting_offset(D, E, coarse, j, candidate_px)) inliers.push_back({j, *d});
+      if (inliers.size() > best_inliers.size()) best = candidate_px, best_inliers = std::move(inliers);
     }
   if (best_inliers.size() < 2) return std::nullopt;
   // The centre from all that nest; then each fine element takes the index
-  // of the nested image it lies on, where that keeps the indices unique.
+  // of the nested image it lies on.
   Vec2 sum{0, 0};
   for (const auto& [j, delta] : best_inliers)
     sum = sum + centre_from(D, E[j], E[coarse.at(E[j].relative_index + delta - kPairIndices)]);
-  const Vec2 centre = (1.0 / double(best_inliers.size())) * sum;
-  std::map<int, size_t> held;
-  for (size_t i = 0; i < E.size(); ++i) held[E[i].relative_index] = i;
-  for (const auto& [j, delta] : best_inliers) {
-    const int k = E[j].relative_index + delta;
-    if (delta == 0 || held.count(k)) continue;
-    held.erase(E[j].relative_index);
-    held[k] = j;
-    E[j].relative_index = k;
-  }
-  std::sort(E.begin(), E.end(),
-            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
-  return centre;
+  const Vec2 centre_px = (1.0 / double(best_inliers.size())) * sum;
+  reindex(E, best_inliers);
+  return centre_px;
 }
 
 // See ChartDetection::predicted_elements.
-void predict_nested_pairs(ChartDetection& D, Vec2 centre, int cols, int rows) {
+void predict_nested_pairs(ChartDetection& D, Vec2 centre_px, int cols, int rows) {
   // Only into a pair of groups that shows an element found: the chart's
   // finest pair is followed by empty ground, not by another. Which pair an
   // index is in needs the element numbers: anchored, or the arrangement's
@@ -451,10 +463,7 @@ void predict_nested_pairs(ChartDetection& D, Vec2 centre, int cols, int rows) {
   const bool anchored = D.anchor != ChartAnchor::none;
   if (!anchored && !D.arrangement.recognised) return;
   const int origin = anchored ? D.largest_index : D.arrangement.phase;
-  const auto pair_of = [&](int k) {
-    const int n = origin + k;
-    return n >= 0 ? n / kPairIndices : -((-n + kPairIndices - 1) / kPairIndices);
-  };
+  const auto pair_of = [&](int k) { return floor_div(origin + k, kPairIndices); };
   std::vector<ChartElement> all = D.elements;  // coarse to fine, so that a prediction can predict the next pair
   std::map<int, size_t> held;
   std::set<int> pairs_found;
@@ -465,14 +474,15 @@ void predict_nested_pairs(ChartDetection& D, Vec2 centre, int cols, int rows) {
   int added = 0;
   for (size_t i = 0; i < all.size(); ++i) {
     const ChartElement coarse = all[i];
-    if (coarse.h < 0 || coarse.v < 0 || held.count(coarse.relative_index + kPairIndices)) continue;
+    if (held.count(coarse.relative_index + kPairIndices)) continue;
     ChartElement e = coarse;
     e.relative_index += kPairIndices;
     if (!pairs_found.count(pair_of(e.relative_index))) continue;
     e.period_px *= kPairScale;
     e.group += 2;
-    if (0.5 * e.period_px < 0.8) continue;  // far below sampling: nothing to measure
-    const BarPattern h = nested_pattern(D.patterns[coarse.h], centre), v = nested_pattern(D.patterns[coarse.v], centre);
+    if (0.5 * e.period_px < kMinPredictedBarPx) continue;
+    const BarPattern h = nested_pattern(D.patterns[coarse.h], centre_px),
+                     v = nested_pattern(D.patterns[coarse.v], centre_px);
     const auto inside = [&](const BarPattern& p) {
       const double r = p.bar_length_px;
       return p.center_px.x >= r && p.center_px.y >= r && p.center_px.x <= cols - 1 - r && p.center_px.y <= rows - 1 - r;
@@ -488,8 +498,7 @@ void predict_nested_pairs(ChartDetection& D, Vec2 centre, int cols, int rows) {
   }
   D.predicted_elements += added;
   D.elements = std::move(all);
-  std::sort(D.elements.begin(), D.elements.end(),
-            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+  sort_by_index(D.elements);
 }
 
 }  // namespace tactres::locate_detail

@@ -224,21 +224,83 @@ TEST_CASE("nesting: the inner pair is the outer one a quarter the size, and its 
   }
 }
 
-TEST_CASE("nesting: a fine element that blur put one index off is re-indexed by its position") {
+namespace {
+
+// The relative indices of `E`, in order.
+std::vector<int> indices_of(const std::vector<ChartElement>& E) {
+  std::vector<int> out;
+  for (const ChartElement& e : E) out.push_back(e.relative_index);
+  return out;
+}
+
+// Build `ns`, then give the elements in `misread` the index `by` off theirs
+// (as a blurred binarised period would), in index order.
+std::pair<Built, std::vector<ChartElement>> misread(const std::vector<int>& ns, const std::vector<int>& wrong, int by,
+                                                    const View& v) {
+  Built b = build(ns, v);
+  std::vector<ChartElement> E = b.D.elements;
+  for (ChartElement& e : E)
+    if (std::count(wrong.begin(), wrong.end(), e.relative_index)) e.relative_index += by;
+  sort_by_index(E);
+  return {std::move(b), std::move(E)};
+}
+
+}  // namespace
+
+TEST_CASE("nesting: fine elements that blur put one index off are re-indexed by their position") {
   View v;
   v.w_px = 12;  // the inner pair's periods are under 8 px, so their indices come from blurred periods
   std::vector<int> ns = range(0, 9);
   for (int n : {12, 13, 14, 16}) ns.push_back(n);
-  Built b = build(ns, v);
-  std::vector<ChartElement> E = b.D.elements;
-  // n = 14 taken for 15: its binarised period read a step small.
-  for (ChartElement& e : E)
-    if (e.relative_index == 14) e.relative_index = 15;
-  std::sort(E.begin(), E.end(), [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
-  REQUIRE(fit_nesting(b.D, E));
-  std::vector<int> indices;
-  for (const ChartElement& e : E) indices.push_back(e.relative_index);
-  CHECK(indices == ns);
+  // One element one index high: 14 taken for 15.
+  {
+    auto [b, E] = misread(ns, {14}, +1, v);
+    REQUIRE(fit_nesting(b.D, E));
+    CHECK(indices_of(E) == ns);
+  }
+  // A run one index low (the way blur biases a binarised period): 13, 14
+  // taken for 12, 13, with 12 itself not found. Moving them all at once
+  // frees each one's place for the next.
+  {
+    std::vector<int> run = range(0, 9);
+    for (int n : {13, 14, 16}) run.push_back(n);
+    auto [b, E] = misread(run, {13, 14}, -1, v);
+    REQUIRE(fit_nesting(b.D, E));
+    CHECK(indices_of(E) == run);
+  }
+  // A move onto an index that an element keeps is not made: a second
+  // element found at 14's place but indexed 15 would move to 14.
+  {
+    Built b = build(ns, v);
+    std::vector<ChartElement> E = b.D.elements;
+    ChartElement twin = *std::find_if(E.begin(), E.end(), [](const ChartElement& e) { return e.relative_index == 14; });
+    twin.relative_index = 15;
+    E.push_back(twin);
+    sort_by_index(E);
+    const std::vector<int> before = indices_of(E);
+    REQUIRE(fit_nesting(b.D, E));
+    CHECK(indices_of(E) == before);
+  }
+}
+
+TEST_CASE("nesting: no pattern is placed twice, under two indices") {
+  View v;
+  v.w_px = 12;
+  std::vector<int> ns = range(0, 11);
+  for (int n : {13, 14, 15}) ns.push_back(n);
+  auto [b, E] = misread(ns, {13, 14, 15}, -1, v);
+  const std::optional<Vec2> centre = fit_nesting(b.D, E);
+  REQUIRE(centre);
+  b.D.elements = E;
+  b.D.arrangement.recognised = true;
+  b.D.arrangement.phase = 0;
+  predict_nested_pairs(b.D, *centre, 1200, 1200);
+  for (size_t i = 0; i < b.D.elements.size(); ++i)
+    for (size_t j = i + 1; j < b.D.elements.size(); ++j) {
+      CAPTURE(b.D.elements[i].relative_index);
+      CAPTURE(b.D.elements[j].relative_index);
+      CHECK(norm(b.D.patterns[b.D.elements[i].h].center_px - b.D.patterns[b.D.elements[j].h].center_px) > 1);
+    }
 }
 
 TEST_CASE("nesting: nothing is placed without two elements that nest, or into a pair with none found") {

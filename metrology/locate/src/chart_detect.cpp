@@ -446,8 +446,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   std::vector<ChartElement> kept;
   assign_indices(D, elements, field, field.g, kept);
   drop_series_misfits(D, field, kept);
-  std::sort(kept.begin(), kept.end(),
-            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+  sort_by_index(kept);
   if (kept.empty()) {
     D.problem = "no USAF-1951 chart found: the elements found do not follow the 2^(1/6) series";
     return D;
@@ -464,6 +463,9 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
     e.element = n - 6 * e.group + 1;
   }
   D.elements = std::move(kept);
+  // Column ends first: extrapolated from their neighbours, they are placed
+  // better than by the nesting, which maps a coarse element from the
+  // field's distorted corner to its centre (dev_04/05's G6E6).
   predict_column_ends(D);
   if (nesting_centre_px) predict_nested_pairs(D, *nesting_centre_px, img.cols, img.rows);
   add_partial_elements(D, pairing.lone, field, separation_periods, img);

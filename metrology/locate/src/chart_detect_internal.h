@@ -5,6 +5,7 @@
 //                          elements, the group labels, the column ends
 //   chart_detect.cpp       the rest: indices, anchor, partial elements
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <vector>
@@ -25,8 +26,11 @@ inline Vec2 perp(Vec2 d) { return {-d.y, d.x}; }
 // 10.00), so positions scale about the origin, not about pixel centres.
 inline Vec2 from_octave(Vec2 p, int octaves) { return std::exp2(octaves) * p; }
 
-// floor(n / 6) for any sign of n: the group of series index n = 6 g + e - 1.
-inline int floor_div6(int n) { return n >= 0 ? n / 6 : -((-n + 5) / 6); }
+// floor(n / d) for any sign of n (d > 0).
+inline int floor_div(int n, int d) { return n >= 0 ? n / d : -((-n + d - 1) / d); }
+
+// floor(n / 6): the group of series index n = 6 g + e - 1.
+inline int floor_div6(int n) { return floor_div(n, 6); }
 
 // n modulo 12 in 0..11 for any sign of n: a series index's place in its
 // pair of groups.
@@ -102,13 +106,25 @@ std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D,
 // (px); a finer one's may be a step off under blur.
 constexpr double kWellSampledPeriodPx = 8;
 
+// No element is placed (predicted) with bars narrower than this: far below
+// sampling there is nothing to model or measure.
+constexpr double kMinPredictedBarPx = 0.8;
+
+// Elements in the order of their relative index (coarse to fine).
+inline void sort_by_index(std::vector<ChartElement>& E) {
+  std::sort(E.begin(), E.end(),
+            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+}
+
 // The arrangement nests: each pair of groups is the pair two groups
 // coarser (12 indices) scaled by 1/4 about one point of the chart, on the
 // makers' charts and the generated one alike. fit_nesting finds that point
 // from the elements found 12 indices apart (E: relative indices from 0,
 // coarse to fine), and moves a fine element's index by one where its
-// position says its period misled (blur); nullopt when fewer than two
-// elements nest about one point.
+// position says its period misled (blur), keeping the indices unique;
+// nullopt when fewer than two elements nest about one point (two elements
+// are four patterns that must each land within a quarter period: dev_05's
+// inner pair shows only G6E2 and G6E3).
 std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElement>& E);
 
 // See ChartDetection::predicted_elements: the ends of the columns found,

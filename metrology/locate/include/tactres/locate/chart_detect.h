@@ -18,7 +18,9 @@
 //    the H triplet sits beside the V triplet along x); this holds under any
 //    rotation and mirroring.
 // 4. Indices: elements are numbered from the largest found, one step per
-//    2^(1/6) in period.
+//    2^(1/6) in period; a fine element whose position in the nested pairs
+//    (each pair of groups the pair two coarser at 1/4) says its blurred
+//    period misled it is moved by one.
 // 5. Anchor: the absolute group comes from --px-per-mm (the largest
 //    element's frequency follows from its period), or from --largest-group
 //    (the largest element found is element --largest-element of it), or,
@@ -75,7 +77,7 @@ struct BarPattern {
   double bar_length_px = 0;
   bool light_bars = false;  // bars brighter than the ground (negative chart)
   std::array<Vec2, 3> bar_centers_px{};
-  bool predicted = false;   // not found but placed by its column (see ChartDetection)
+  bool predicted = false;   // not found but placed by its column or the nesting (see ChartDetection)
 };
 
 enum class ChartAnchor { none, largest_group, px_per_mm, arrangement, printed_numbers };
