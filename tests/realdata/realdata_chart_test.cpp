@@ -92,6 +92,15 @@ void check_exit_codes_and_json() {
       const Run& r = measure(file);
       CHECK((r.exit_code == 0 || r.exit_code == 1 || r.exit_code == 2));
       CHECK(r.j.has_value());
+      // Every element placed but not found is listed, and is measured.
+      if (!r.j || !r.j->contains("chart") || !(*r.j)["chart"].value("found", false)) continue;
+      const json& chart = (*r.j)["chart"];
+      CHECK(chart["placed_elements"].size() == chart["predicted_elements"].get<size_t>());
+      for (const json& p : chart["placed_elements"]) {
+        int measured = 0;
+        for (const json& e : (*r.j)["elements"]) measured += e["group"] == p["group"] && e["element"] == p["element"];
+        CHECK(measured == 2);
+      }
     }
 }
 

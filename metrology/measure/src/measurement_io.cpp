@@ -201,10 +201,16 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
   j["anchor_description"] = d.anchor_description;
   j["indices"] = d.anchor == ChartAnchor::none ? "relative" : "absolute";
   j["patterns_found"] = d.patterns.size();
-  j["elements_found"] = d.elements.size();
+  // Found (binarised) elements, and apart from them those placed by their
+  // column or the nesting of the pairs (measured the same way).
+  nlohmann::json placed = nlohmann::json::array();
+  for (const ChartElement& e : d.elements)
+    if (e.h >= 0 && d.patterns[e.h].predicted) placed.push_back({{"group", e.group}, {"element", e.element}});
+  j["elements_found"] = d.elements.size() - placed.size();
   j["unpaired_patterns"] = d.unpaired_patterns;
   j["single_pattern"] = d.single_pattern;  // one triplet in view, measured in the image's orientation
   j["predicted_elements"] = d.predicted_elements;
+  j["placed_elements"] = placed;
   const auto& a = d.arrangement;
   if (a.steps_checked > 0 || !a.note.empty())
     j["arrangement"] = {{"recognised", a.recognised},
