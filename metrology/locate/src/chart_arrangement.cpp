@@ -278,14 +278,14 @@ void predict_column_ends(ChartDetection& D) {
   // arrangement is recognised (its phase fixes them and the group's parity,
   // not the group): then a column ends at element 6 too. Unanchored and
   // unrecognised, one step beyond three in a row is all that is known.
-  const bool anchored = D.anchor != ChartAnchor::none;
-  const bool numbered = anchored || D.arrangement.recognised;
+  const std::optional<int> origin = series_origin(D);
+  const bool numbered = origin.has_value();
   struct Number {
-    int group, element;
+    int group = 0, element = 1;
   };
   auto number = [&](const ChartElement& e) {
-    if (anchored) return Number{e.group, e.element};
-    const int n = D.arrangement.phase + e.relative_index;  // the group is right modulo 2
+    if (!origin) return Number{};
+    const int n = *origin + e.relative_index;
     return Number{floor_div6(n), n - 6 * floor_div6(n) + 1};
   };
   for (const auto& [k, i] : by_index) {
@@ -455,12 +455,11 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
 void predict_nested_pairs(ChartDetection& D, Vec2 centre_px, int cols, int rows) {
   // Only into a pair of groups that shows an element found: the chart's
   // finest pair is followed by empty ground, not by another. Which pair an
-  // index is in needs the element numbers: anchored, or the arrangement's
-  // phase (pairs start at an even group's element 1, n = 0 modulo 12).
-  const bool anchored = D.anchor != ChartAnchor::none;
-  if (!anchored && !D.arrangement.recognised) return;
-  const int origin = anchored ? D.largest_index : D.arrangement.phase;
-  const auto pair_of = [&](int k) { return floor_div(origin + k, kPairIndices); };
+  // index is in needs the element numbers (pairs start at an even group's
+  // element 1, n = 0 modulo 12).
+  const std::optional<int> origin = series_origin(D);
+  if (!origin) return;
+  const auto pair_of = [&](int k) { return floor_div(*origin + k, kPairIndices); };
   std::vector<ChartElement> all = D.elements;  // coarse to fine, so that a prediction can predict the next pair
   std::map<int, size_t> held;
   std::set<int> pairs_found;

@@ -355,8 +355,7 @@ void add_partial_elements(ChartDetection& D, const std::vector<int>& lone, const
     taken.push_back(index);
     D.partial.push_back(e);
   }
-  std::sort(D.partial.begin(), D.partial.end(),
-            [](const ChartElement& a, const ChartElement& b) { return a.relative_index < b.relative_index; });
+  sort_by_index(D.partial);
 }
 
 // ChartDetection::single_pattern: the one large pattern of either polarity,

@@ -110,6 +110,15 @@ constexpr double kWellSampledPeriodPx = 8;
 // sampling there is nothing to model or measure.
 constexpr double kMinPredictedBarPx = 0.8;
 
+// The series index (6 g + e - 1) of relative index 0: absolute when
+// anchored; right modulo 12 (each element's number and its group's parity)
+// when only the arrangement is recognised; nullopt when neither.
+inline std::optional<int> series_origin(const ChartDetection& D) {
+  if (D.anchor != ChartAnchor::none) return D.largest_index;
+  if (D.arrangement.recognised) return D.arrangement.phase;
+  return std::nullopt;
+}
+
 // Elements in the order of their relative index (coarse to fine).
 inline void sort_by_index(std::vector<ChartElement>& E) {
   std::sort(E.begin(), E.end(),
@@ -129,9 +138,9 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
 
 // See ChartDetection::predicted_elements: the ends of the columns found,
 // then the elements of the pairs nested inside the ones held, about
-// `centre` (cols x rows: the image, which they must lie in).
+// centre_px (cols x rows: the image, which they must lie in).
 void predict_column_ends(ChartDetection& D);
-void predict_nested_pairs(ChartDetection& D, Vec2 centre, int cols, int rows);
+void predict_nested_pairs(ChartDetection& D, Vec2 centre_px, int cols, int rows);
 
 // The anchor from the printed group and element numbers, read by OCR
 // (chart_labels.cpp): sets D.largest_index and returns true when the

@@ -95,7 +95,8 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
     if (!pattern.predicted && norm(detected.center_px - f.center_px) > 0.1 * e.px_per_bar)
       job.placements.push_back(store.place(r, detected, job.sampling));
     // A predicted pattern is placed by its column or the nesting, more
-    // precisely than its faint bars could place it; a found one is centred on its data.
+    // precisely than its faint bars could place it; a found one is centred
+    // on its data.
     if (!pattern.predicted)
       job.prepare = [w = r.bar_width_mm(), shifts](const ProfileData& d, const ProfileFitOptions& o) {
         double shift_mm = 0;
