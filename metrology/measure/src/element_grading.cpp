@@ -31,6 +31,10 @@ void set_signal(ElementResult& r, const SampledProfile& sp, const ProfileFit& fi
   const double anisotropy = sp.px_per_mm_across > 0 ? sp.px_per_mm_along / sp.px_per_mm_across : 1.0;
   r.bar_pixels = pixels_per_bar(r.px_per_bar, anisotropy);
 }
+std::string clipped_note(const SampledProfile& sp) {
+  return fmt::format("{:.0f} % of its pixels are clipped (black or saturated)",
+                     100.0 * sp.pixels_clipped / std::max(1, sp.pixels_used));
+}
 }  // namespace
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
@@ -50,17 +54,24 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     r.status = ElementStatus::below_sampling_limit;
     return 0;
   }
-  if (sp.pixels_clipped > sp.pixels_used / 50) {
+  // Clipped bins enter the fit as bounds (ProfileData::bound); with most
+  // of the strip clipped, too little is measured to fit.
+  const bool clipped = sp.pixels_clipped > sp.pixels_used / 50;
+  if (sp.pixels_clipped > sp.pixels_used / 2) {
     r.status = ElementStatus::clipped;
+    r.note = clipped_note(sp);
     return 0;
   }
   const Stopwatch fit_time;
   std::tie(fo.start_nu0_per_mm, fo.start_beta) = warm_lsf;
   const ProfileFit fit = prepare ? fit_profile(prepare(sp.data, fo), fo) : fit_profile(sp.data, fo);
-  if (fit.usable) warm_lsf = {fit.nu0_per_mm, fit.beta};
+  if (fit.usable && !clipped) warm_lsf = {fit.nu0_per_mm, fit.beta};
   const double seconds = fit_time.seconds();
-  if (!fit.usable) {
-    r.status = ElementStatus::fit_failed;
+  if (!fit.usable || (clipped && fit.transfer_sigma(r.lp_per_mm) > options.max_m_sigma)) {
+    // What the clipping left does not pin the bars down: clipped, not a
+    // failed fit or a faint element.
+    r.status = clipped ? ElementStatus::clipped : ElementStatus::fit_failed;
+    if (clipped) r.note = clipped_note(sp) + "; the rest does not pin m down";
     return seconds;
   }
   const double m = fit.transfer(r.lp_per_mm);
@@ -125,6 +136,8 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
                            "m_sigma is widened by sqrt(chi^2){}",
                            fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
   }
+  if (clipped && r.status == ElementStatus::ok)
+    r.note = clipped_note(sp) + ": fitted with those bins as bounds" + (r.note.empty() ? "" : "; " + r.note);
   return seconds;
 }
 

@@ -137,7 +137,7 @@ class ProfileCost final : public ceres::CostFunction {
       : model_(model), contrast_slope_per_mm_(contrast_slope_per_mm) {
     const int n = model.grid_size();
     for (int i = d.fit_begin; i < d.fit_end; ++i) {
-      if (!(d.count[i] > 0 && std::isfinite(d.value[i]))) continue;
+      if (!(d.count[i] > 0 && std::isfinite(d.value[i])) || d.bound_at(i) == 2) continue;
       // Cubic (Catmull-Rom) interpolation of the grid model at the bin's
       // mean u: linear interpolation would attenuate the fundamental by ~1%
       // at quarter-pixel grid spacing. The weights depend on the data only.
@@ -151,12 +151,15 @@ class ProfileCost final : public ceres::CostFunction {
       b.u_mm = d.u_mean_mm[i];
       b.value = d.value[i];
       b.sigma = d.sigma[i];
+      b.bound = d.bound_at(i);
+      bound_count_ += b.bound != 0;
       bins_.push_back(b);
     }
     set_num_residuals(static_cast<int>(bins_.size()));
     mutable_parameter_block_sizes()->push_back(kParamCount);
   }
   int residual_count() const { return static_cast<int>(bins_.size()); }
+  int bound_count() const { return bound_count_; }
 
   // RMS of (model - data) in image units, unweighted.
   double residual_rms(const double* x) const {
@@ -191,6 +194,7 @@ class ProfileCost final : public ceres::CostFunction {
     int grid = 1;                   // grid index of the second of four interpolation nodes
     std::array<double, 4> weight{};  // Catmull-Rom weights of nodes grid-1 .. grid+2
     double u_mm = 0, value = 0, sigma = 1;
+    signed char bound = 0;  // ProfileData::bound
   };
 
   // The weighted residuals (and their Jacobian, row-major, if `jacobian`),
@@ -214,6 +218,13 @@ class ProfileCost final : public ceres::CostFunction {
       const double model = light * (1 + c * sig);
       const double w = 1.0 / b.sigma;
       residuals[r] = (model - b.value) * w;
+      // A bound the model keeps costs nothing and pulls on nothing.
+      const bool kept = (b.bound < 0 && residuals[r] <= 0) || (b.bound > 0 && residuals[r] >= 0);
+      if (kept) {
+        residuals[r] = 0;
+        if (want_j) std::fill_n(jacobian + r * kParamCount, kParamCount, 0.0);
+        continue;
+      }
       if (want_j) {
         double* J = jacobian + r * kParamCount;
         J[kB0] = (1 + c * sig) * w;
@@ -229,6 +240,7 @@ class ProfileCost final : public ceres::CostFunction {
   const GridModel& model_;
   double contrast_slope_per_mm_;
   std::vector<Bin> bins_;
+  int bound_count_ = 0;
 };
 
 }  // namespace
@@ -272,7 +284,7 @@ static const char* unfit_data(const ProfileData& data) {
   const size_t nn = static_cast<size_t>(std::max(n, 0));
   if (n < 8 || data.bin_mm <= 0 || data.fit_begin < 0 || data.fit_end > n ||
       data.value.size() != nn || data.u_mean_mm.size() != nn || data.sigma.size() != nn ||
-      data.count.size() != nn)
+      data.count.size() != nn || !(data.bound.empty() || data.bound.size() == nn))
     return "profile too short or inconsistent";
   bool finite = std::isfinite(data.u0_mm) && std::isfinite(data.bin_mm) &&
                 std::isfinite(data.bin_spread_var_mm2) && data.bin_spread_var_mm2 >= 0;
@@ -296,7 +308,10 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   auto* cost = new ProfileCost(data, model, options.contrast_slope_per_mm);
   const int free_params = 3 + (options.fit_shape ? 1 : 0) + (options.fit_contrast ? 1 : 0) +
                           (options.quadratic_background ? 1 : 0);
-  if (cost->residual_count() < free_params + 3) {
+  // Bounds carry no noise to count degrees of freedom with: the
+  // measurements alone must pin the model down.
+  const int measured = cost->residual_count() - cost->bound_count();
+  if (measured < free_params + 3) {
     delete cost;
     out.problem = "too few samples across the bars";
     return out;
@@ -365,12 +380,13 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   ceres::Solve(so, &problem, &summary);
   out.solver_report = summary.BriefReport();
   out.residual_count = cost->residual_count();
+  out.bound_count = cost->bound_count();
   if (!summary.IsSolutionUsable()) {
     out.problem = "solver failed: " + summary.message;
     return out;
   }
 
-  const int dof = std::max(1, out.residual_count - free_params);
+  const int dof = std::max(1, measured - free_params);
   out.chi2_reduced = 2 * summary.final_cost / dof;
   out.residual_rms = cost->residual_rms(x);
   out.signal_rms = cost->signal_rms(x);

@@ -91,6 +91,47 @@ TEST_CASE("albedo profile: m equals the Gaussian MTF at the bar frequency") {
   }
 }
 
+TEST_CASE("clipped bins as bounds: a censored fit keeps m where clipped values as data bias it") {
+  // Dark bars on a ground of 200, contrast -0.95: the bar cores fall to
+  // ~10-20 and a camera whose black sits at 60 clips them there. Read as
+  // data, the clipped cores look like shallower bars (more blur); as upper
+  // bounds (the light there was at most 60), the edges and gaps fix m.
+  const Bars bars{0.05};
+  const double f = 1 / (2 * bars.w);
+  const double s = 0.35 * bars.w, c = -0.95, black = 60;
+  auto truth = [&](double u) { return 200.0 * (1 + c * bars.blurred(u, s)); };
+  ProfileData d = make_profile(bars, bars.w / 12, 8 * bars.w, 4 * bars.w, truth, 0.5, nullptr);
+  int clipped = 0;
+  d.bound.assign(d.bin_count, 0);
+  for (int i = 0; i < d.bin_count; ++i)
+    if (d.value[i] <= black) d.value[i] = black, d.bound[i] = -1, ++clipped;
+  REQUIRE(clipped > 10);
+  ProfileFitOptions o;
+  o.contrast = c;
+  o.fit_shape = false;
+  const double m_true = std::exp(-2 * kPi * kPi * s * s * f * f);
+  const ProfileFit censored = fit_profile(d, o);
+  REQUIRE(censored.usable);
+  CHECK(censored.bound_count >= 8);
+  CHECK(std::abs(censored.transfer(f) - m_true) < 0.01);
+  CHECK(censored.chi2_reduced < 3);
+  ProfileData as_data = d;
+  as_data.bound.clear();
+  const ProfileFit naive = fit_profile(as_data, o);
+  REQUIRE(naive.usable);
+  CHECK(naive.transfer(f) < m_true - 0.05);
+  CHECK(naive.chi2_reduced > 10 * censored.chi2_reduced);
+  // Saturation is the mirror image: a ground clipped at 190 reads as a
+  // lower bound.
+  ProfileData bright = make_profile(bars, bars.w / 12, 8 * bars.w, 4 * bars.w, truth, 0.5, nullptr);
+  bright.bound.assign(bright.bin_count, 0);
+  for (int i = 0; i < bright.bin_count; ++i)
+    if (bright.value[i] >= 190) bright.value[i] = 190, bright.bound[i] = 1;
+  const ProfileFit sat = fit_profile(bright, o);
+  REQUIRE(sat.usable);
+  CHECK(std::abs(sat.transfer(f) - m_true) < 0.01);
+}
+
 TEST_CASE("reference patch: the contrast is fitted") {
   const Bars wide{1.0};  // use one wide bar as a patch stand-in
   const double s = 0.05;

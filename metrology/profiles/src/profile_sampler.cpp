@@ -228,7 +228,7 @@ PixelBox pixel_box(const std::vector<Vec2>& px, int W, int H) {
 // bin (in w) and into `samples`; masked and clipped pixels are counted in `out`.
 void accumulate_pixels(const cv::Mat& lum, const PixelMap& map_uv, const ScaleWarp& warp, const PixelBox& box,
                        const Strip& s, double clip_level, BinSums& sums, std::vector<Sample>& samples,
-                       SampledProfile& out) {
+                       std::vector<unsigned char>& clip_bits, SampledProfile& out) {
   ProfileData& d = out.data;
   const double U = s.half_u_mm, V = s.half_v_mm;
   samples.reserve(size_t(std::max(0, box.x1 - box.x0 + 1)) * size_t(std::max(0, box.y1 - box.y0 + 1)));
@@ -253,9 +253,12 @@ void accumulate_pixels(const cv::Mat& lum, const PixelMap& map_uv, const ScaleWa
         ++out.pixels_masked;
         continue;
       }
-      if (clip_level > 0 && (value >= clip_at || value <= 0.f)) ++out.pixels_clipped;
+      const bool dark_clip = clip_level > 0 && value <= 0.f, bright_clip = clip_level > 0 && value >= clip_at;
+      if (dark_clip || bright_clip) ++out.pixels_clipped;
       const int b = static_cast<int>(std::floor((w - d.u0_mm) * inv_bin));
       if (b < 0 || b >= d.bin_count) continue;
+      // Bit 1: clipped at black, bit 2: at saturation (ProfileData::bound).
+      if (dark_clip || bright_clip) clip_bits[b] |= dark_clip ? 1 : 2;
       sums.add(b, value, w, v);
       samples.push_back({w, v, value, b});
       ++d.count[b];
@@ -446,13 +449,23 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   d.count.assign(d.bin_count, 0);
   BinSums sums(d.bin_count);
   std::vector<Sample> samples;  // kept for the along-bar light correction
-  accumulate_pixels(lum, map_uv, warp, pixel_box(px, W, H), s, clip_level, sums, samples, out);
+  std::vector<unsigned char> clip_bits(d.bin_count, 0);
+  accumulate_pixels(lum, map_uv, warp, pixel_box(px, W, H), s, clip_level, sums, samples, clip_bits, out);
   const double mean_abs_level = set_bin_means(d, sums, out.pixels_used);
   std::vector<int> filled;  // bins holding samples (aligned pixels leave gaps)
   for (int b = 0; b < d.bin_count; ++b)
     if (d.count[b] > 0) filled.push_back(b);
   refer_to_mid_strip(d, sums, samples, filled, V);
-  fit_noise_models(d, sums, flattest_first(d, filled), mean_abs_level, out);
+  if (out.pixels_clipped > 0) {
+    static constexpr signed char kBoundOf[4] = {0, -1, 1, 2};
+    d.bound.resize(d.bin_count);
+    for (int b = 0; b < d.bin_count; ++b) d.bound[b] = kBoundOf[clip_bits[b]];
+  }
+  // A clipped bin's spread is not its noise.
+  std::vector<int> measured;
+  for (int b : filled)
+    if (d.bound_at(b) == 0) measured.push_back(b);
+  fit_noise_models(d, sums, flattest_first(d, measured), mean_abs_level, out);
   d.ideal = ideal_boxes(artwork, s, 0.25 * d.bin_mm, warp);
   return out;
 }

@@ -112,3 +112,47 @@ TEST_CASE("a wide strip whose image scale changes is binned so that a pixel-spac
   const double nu0_true = 1 / (std::sqrt(2.0) * M_PI * sigma_px / plane.s0_px_per_mm);
   CHECK(fit.nu0_per_mm == doctest::Approx(nu0_true).epsilon(0.02));
 }
+
+TEST_CASE("clipped pixels make their bins bounds: black an upper, saturation a lower one") {
+  // Bars at 0 (clipped at black) on a ground at the clip level 1 (clipped
+  // at saturation), with an unclipped grey band between.
+  const ElementLayout e = triplet(0.1);
+  ProfileSamplingOptions so;
+  const Strip strip = element_strip(e, so);
+  const double px_per_mm = 60;
+  cv::Mat lum(400, 400, CV_32F, cv::Scalar(1.0));
+  for (int y = 0; y < lum.rows; ++y)
+    for (int x = 0; x < lum.cols; ++x) {
+      const double u_mm = (x - 200) / px_per_mm;
+      for (const RectMm& b : e.bars_mm)
+        if (u_mm >= b.x0 && u_mm < b.x1) lum.at<float>(y, x) = 0.f;
+      if (std::abs(u_mm) > 0.32 && std::abs(u_mm) < 0.36) lum.at<float>(y, x) = 0.5f;
+    }
+  std::vector<ArtworkShape> shapes;
+  for (const RectMm& b : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
+  const IndexedArtwork artwork(shapes);
+  const PatternFrame frame({200, 200}, {1, 0}, px_per_mm);
+  const SampledProfile p = sample_strip(lum, frame, artwork, strip, so, 1.0);
+  REQUIRE(p.in_view);
+  REQUIRE(p.data.bound.size() == size_t(p.data.bin_count));
+  int upper = 0, lower = 0, measured = 0;
+  for (int b = 0; b < p.data.bin_count; ++b) {
+    if (p.data.count[b] == 0) continue;
+    const double v = p.data.value[b];
+    if (v < 0.01) {
+      CHECK(p.data.bound[b] == -1);
+      ++upper;
+    } else if (v > 0.99) {
+      CHECK(p.data.bound[b] == 1);
+      ++lower;
+    } else if (std::abs(v - 0.5) < 0.01) {
+      CHECK(p.data.bound[b] == 0);
+      ++measured;
+    }
+  }
+  CHECK(upper > 10);
+  CHECK(lower > 10);
+  CHECK(measured > 2);
+  // With no clip level, nothing is a bound.
+  CHECK(sample_strip(lum, frame, artwork, strip, so, 0).data.bound.empty());
+}

@@ -57,6 +57,14 @@ struct ProfileData {
   std::vector<double> u_mean_mm;  // mean u of the samples in the bin
   std::vector<double> sigma;    // standard error of the bin mean
   std::vector<int> count;       // samples in the bin
+  // Per bin, whether its mean is a measurement (0) or only a bound on the
+  // light before clipping: a pixel clipped at black read at least its true
+  // value, so a bin holding one reads an upper bound (-1: true <= value);
+  // one clipped at saturation, a lower bound (+1: true >= value). The fit
+  // treats a bound as a one-sided residual (a censored, Tobit-style fit):
+  // clipped bar cores still say the bars went at least that deep. Empty:
+  // every bin a measurement. 2: both kinds of clipping, no information.
+  std::vector<signed char> bound;
   // Mean variance of the sample positions u within a bin (mm^2): averaging
   // samples spread over a bin blurs the profile by that much, which the
   // model applies as a Gaussian of that variance (exact to second order).
@@ -67,6 +75,7 @@ struct ProfileData {
 
   double bin_center_mm(int i) const { return u0_mm + (i + 0.5) * bin_mm; }
   double ideal_at(double u_mm) const;  // S(u)
+  int bound_at(int i) const { return bound.empty() ? 0 : bound[i]; }
 };
 
 struct ProfileFitOptions {
@@ -105,7 +114,8 @@ struct ProfileFit {
   double chi2_reduced = 0;
   double residual_rms = 0;  // RMS of model - data, in image units
   double signal_rms = 0;    // RMS of the fitted signature alone (model - background), image units
-  int residual_count = 0;
+  int residual_count = 0;   // bins fitted: measurements and bounds
+  int bound_count = 0;      // of them, bounds (clipped bins, ProfileData::bound)
   std::string solver_report;
 
   double transfer(double lp_per_mm) const;        // T(f) = m
