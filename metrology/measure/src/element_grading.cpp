@@ -101,9 +101,16 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     // fitted signal (as if m were at least 0.05), for both signatures alike
     // (a relief's slope signal is not the level step times m). A
     // noise-free capture's small model error passes the first test alone.
-    r.status = ElementStatus::aliased;
-    r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
-                         r.px_per_bar, fit.chi2_reduced);
+    // With clipped bins the misfit cannot tell aliasing from a profile the
+    // clipping distorted beyond the model (a resampled photograph's
+    // overshoot at the clip level): such an element stays `clipped`, as
+    // it was before clipped bins were fitted as bounds.
+    r.status = clipped ? ElementStatus::clipped : ElementStatus::aliased;
+    r.note = clipped ? clipped_note(sp) + fmt::format("; the fit with them as bounds misses the data (reduced chi^2 "
+                                                       "{:.3g}, misfit as large as the bars' signal)",
+                                                       fit.chi2_reduced)
+                     : fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
+                                   r.px_per_bar, fit.chi2_reduced);
   } else if (m < 1e-4 && m_sigma < 1e-4) {
     // The fit sits on its bound (no modulation left): there the covariance
     // collapses, and "m = 0 +- 1e-6" would claim a certainty the data do

@@ -1,6 +1,11 @@
 #include "tactres/measure/element_grading.h"
 
+#include <cmath>
+
 #include <doctest/doctest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "tactres/camera/plane_map.h"
 
 using namespace tactres;
 
@@ -55,4 +60,81 @@ TEST_CASE("damaged: not when a finer neighbour is unresolved or within the error
   d.elements[1].status = ElementStatus::aliased;
   grade_damaged(d, c);
   CHECK(d.elements[1].status == ElementStatus::damaged);
+}
+
+namespace {
+
+// A vertical-bar triplet (bar width 0.1 mm at 40 px/mm: 4 px per bar)
+// blurred by a Gaussian of `blur_px`, ground `ground` x (1 - 0.8 S), with
+// the ground above the clip level 1 where `ground` > 1; its strip's profile
+// sampled with clip level 1. `period_scale` != 1 draws the bars at another
+// period than the layout's.
+SampledProfile clipped_triplet(double ground, double blur_px, double period_scale = 1.0) {
+  constexpr double w_mm = 0.1, px_per_mm = 40;
+  cv::Mat ink(200, 200, CV_32F, cv::Scalar(0));
+  for (int y = 0; y < ink.rows; ++y)
+    for (int x = 0; x < ink.cols; ++x) {
+      const double u = (x + 0.5 - 100) / px_per_mm, v = (y + 0.5 - 100) / px_per_mm;
+      for (int k = -1; k <= 1; ++k)
+        if (std::abs(u - 2 * k * w_mm * period_scale) < 0.5 * w_mm && std::abs(v) < 2.5 * w_mm) ink.at<float>(y, x) = 1;
+    }
+  cv::GaussianBlur(ink, ink, {0, 0}, blur_px);
+  cv::Mat lum = ground * (1 - 0.8 * ink);
+  cv::min(lum, 1.0, lum);
+  ElementLayout e;
+  e.bar_width_mm = w_mm;
+  e.lp_per_mm = 0.5 / w_mm;
+  e.orientation = BarOrientation::vertical_bars;
+  std::vector<ArtworkShape> shapes;
+  for (int k = -1; k <= 1; ++k) {
+    e.bars_mm[k + 1] = {(2 * k - 0.5) * w_mm, -2.5 * w_mm, (2 * k + 0.5) * w_mm, 2.5 * w_mm};
+    shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, e.bars_mm[k + 1], {}, 0, {}});
+  }
+  const IndexedArtwork artwork(shapes);
+  const PatternFrame frame({100, 100}, {1, 0}, px_per_mm);
+  const ProfileSamplingOptions so;
+  return sample_strip(lum, frame, artwork, element_strip(e, so), so, 1.0);
+}
+
+ElementResult graded(const SampledProfile& sp, double px_per_bar) {
+  ElementResult r = ElementResult::of(2, 1, BarOrientation::vertical_bars, 5.0, px_per_bar);
+  ProfileFitOptions fo;
+  fo.contrast = -0.8;
+  std::pair<double, double> warm{0, 0};
+  grade_element(r, sp, fo, 0.0, MeasureOptions{}, warm);
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("clipped: a ground above saturation is fitted as bounds; m as if nothing clipped") {
+  // Ground at 1.25 clipped to 1: the margins and gap crests are bounds.
+  const SampledProfile sp = clipped_triplet(1.25, 1.2);
+  REQUIRE(sp.in_view);
+  REQUIRE(sp.pixels_clipped > sp.pixels_used / 50);
+  REQUIRE(sp.pixels_clipped < sp.pixels_used / 2);
+  const ElementResult r = graded(sp, 4.0);
+  REQUIRE(r.status == ElementStatus::ok);
+  CHECK(r.note.find("clipped") != std::string::npos);
+  const ElementResult unclipped = graded(clipped_triplet(0.95, 1.2), 4.0);
+  REQUIRE(unclipped.status == ElementStatus::ok);
+  CHECK(std::abs(r.m - unclipped.m) < 2 * r.m_sigma + 0.01);
+}
+
+TEST_CASE("clipped: a clipped profile the model misses is clipped; most of a strip clipped is clipped") {
+  // The bars drawn at 0.6x the layout's period (graded as if at 2.5 px per
+  // bar), so the fit misses them; with clipping this cannot be told from a
+  // distorted clipped profile.
+  constexpr double scale = 0.6;
+  const SampledProfile sp = clipped_triplet(1.25, 0.6, scale);
+  REQUIRE(sp.pixels_clipped > sp.pixels_used / 50);
+  const ElementResult r = graded(sp, 2.5);
+  CHECK(r.status == ElementStatus::clipped);
+  CHECK(r.note.find("clipped") != std::string::npos);
+  // Without clipping the same bars are not called measured either.
+  CHECK(graded(clipped_triplet(0.95, 0.6, scale), 2.5).status != ElementStatus::ok);
+  // A ground far above the clip level: more than half of the strip.
+  const SampledProfile most = clipped_triplet(6.0, 1.2);
+  REQUIRE(most.pixels_clipped > most.pixels_used / 2);
+  CHECK(graded(most, 4.0).status == ElementStatus::clipped);
 }

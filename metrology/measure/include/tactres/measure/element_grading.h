@@ -15,7 +15,12 @@
 //   first test that applies, in this order:
 //     out_of_view           the strip is not fully in the image;
 //     below_sampling_limit  px_per_bar < options.min_px_per_bar, or <= 1;
-//     clipped               more than 2 % of the strip's pixels clipped;
+//     clipped               more than half of the strip's pixels clipped;
+//                           or more than 2 % and the fit with the clipped
+//                           bins as bounds (ProfileData::bound) fails, leaves
+//                           m_sigma > options.max_m_sigma, or misses the
+//                           data as the aliasing test below says (with
+//                           bounds it cannot tell aliasing from clipping);
 //     fit_failed            the solver failed, or m / m_sigma not finite;
 //     aliased               px_per_bar < 3 and reduced chi^2 > aliasing_chi2
 //                           and a residual > half the bars' own modulation,
@@ -26,7 +31,8 @@
 //                           covariance collapses there), or m_sigma >
 //                           options.max_m_sigma;
 //     ok                    m and m_sigma (>= 1e-6) are set; r.note says so
-//                           when the reduced chi^2 exceeds poor_fit_chi2.
+//                           when the reduced chi^2 exceeds poor_fit_chi2,
+//                           and when more than 2 % of the pixels are clipped.
 //   r.beta and r.chi2_reduced are set whenever the fit was usable; m and
 //   m_sigma stay 0 unless the status is ok. r.resolved is not touched
 //   (decide_limits sets it).
