@@ -107,7 +107,7 @@ ElementResult graded(const SampledProfile& sp, double px_per_bar) {
 
 }  // namespace
 
-TEST_CASE("clipped: a ground above saturation is fitted as bounds; m as if nothing clipped") {
+TEST_CASE("clipped: a ground above saturation is fitted as bounds, m as if nothing clipped") {
   // Ground at 1.25 clipped to 1: the margins and gap crests are bounds.
   const SampledProfile sp = clipped_triplet(1.25, 1.2);
   REQUIRE(sp.in_view);
@@ -121,7 +121,7 @@ TEST_CASE("clipped: a ground above saturation is fitted as bounds; m as if nothi
   CHECK(std::abs(r.m - unclipped.m) < 2 * r.m_sigma + 0.01);
 }
 
-TEST_CASE("clipped: a clipped profile the model misses is clipped; most of a strip clipped is clipped") {
+TEST_CASE("clipped: a clipped profile the model misses is clipped, and so is a strip mostly clipped") {
   // The bars drawn at 0.6x the layout's period (graded as if at 2.5 px per
   // bar), so the fit misses them; with clipping this cannot be told from a
   // distorted clipped profile.

@@ -29,7 +29,7 @@ LevelStep GainField::at(Vec2 p, const LevelStep& patch) const {
   const auto& C = covariance;  // (0,0) (0,1) (0,2) (1,1) (1,2) (2,2)
   const double var = d[0] * d[0] * C[0] + d[1] * d[1] * C[3] + d[2] * d[2] * C[5] +
                      2 * (d[0] * d[1] * C[1] + d[0] * d[2] * C[2] + d[1] * d[2] * C[4]);
-  return {contrast + gradient_x_per_mm * d[1] + gradient_y_per_mm * d[2], std::sqrt(std::max(var, 0.0)),
+  return {contrast + gradient_x_per_mm * d[1] + gradient_y_per_mm * d[2], std::sqrt(std::max(var, 0.0) + misfit_var),
           chi2_reduced};
 }
 
@@ -54,11 +54,12 @@ GainField fit_gain_field(const std::vector<GainSample>& samples, Vec2 patch_cent
   if (cv::determinant(normal) <= 1e-9 * normal(0, 0) * normal(1, 1) * normal(2, 2)) return f;
   const cv::Matx33d cov0 = normal.inv(cv::DECOMP_CHOLESKY);
   const cv::Vec3d p = cov0 * rhs;
-  double chi2 = 0;
+  double chi2 = 0, mean_var = 0;
   for (const GainSample& s : samples) {
     const double w = 1.0 / (s.contrast_sigma * s.contrast_sigma + kModelFloor * kModelFloor * scale * scale);
     const double r = s.contrast - (p[0] + p[1] * (s.at_mm.x - patch_center_mm.x) + p[2] * (s.at_mm.y - patch_center_mm.y));
     chi2 += w * r * r;
+    mean_var += 1 / w / samples.size();
   }
   const double chi2_reduced = chi2 / (samples.size() - 3);
   // A plane that misfits more than the errors allow (the field is curved)
@@ -71,6 +72,7 @@ GainField fit_gain_field(const std::vector<GainSample>& samples, Vec2 patch_cent
   plane.gradient_y_per_mm = p[2];
   plane.covariance = {cov(0, 0), cov(0, 1), cov(0, 2), cov(1, 1), cov(1, 2), cov(2, 2)};
   plane.chi2_reduced = chi2_reduced;
+  plane.misfit_var = std::max(0.0, chi2_reduced - 1) * mean_var;
   const double reference = patch.usable() ? patch.contrast : p[0];
   for (const Vec2& m : measured_at_mm)
     plane.spread = std::max(plane.spread, std::abs(plane.at(m, patch).contrast / reference - 1));

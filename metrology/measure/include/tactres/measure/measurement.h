@@ -138,6 +138,11 @@ struct GainField {
   std::array<double, 6> covariance{};              // upper triangle of (c, gx, gy)
   int samples = 0;                                 // patch + coarse elements used
   double chi2_reduced = 0;                         // of the plane
+  // Where the plane misfits (chi2_reduced > 1: a curved field), how far one
+  // point's step departs from it beyond its own error: (chi2_reduced - 1)
+  // times the samples' mean variance. at() adds it, so a step read off the
+  // plane carries a prediction interval, not only the plane's own error.
+  double misfit_var = 0;
   // Largest |contrast(element) / contrast(patch) - 1| over the measured
   // elements' centres (0 when uniform); > 0.5 is noted as strongly non-uniform.
   double spread = 0;
