@@ -160,7 +160,13 @@ std::vector<BarPattern> find_triplets(const std::vector<Bar>& bars, bool light) 
     if (std::abs(a + c) > 0.2 * 0.5 * (c - a)) continue;  // the middle bar sits in the middle
     BarPattern p;
     p.center_px = (1.0 / 3.0) * (A.c + B.c + C.c);
-    p.bar_dir = B.dir;
+    // The three bars' mean direction (each from its component's second
+    // moments, signed as the middle one's): a blob of texture on one bar's
+    // edge turns that bar by degrees (a fluorescent particle turned dev_16's
+    // middle bar by 7 deg, and its strip smeared the bars), the mean of
+    // three by less.
+    const Vec2 dir = B.dir + (dot(A.dir, B.dir) >= 0 ? 1.0 : -1.0) * A.dir + (dot(C.dir, B.dir) >= 0 ? 1.0 : -1.0) * C.dir;
+    p.bar_dir = (1.0 / norm(dir)) * dir;
     p.period_px = 0.5 * (c - a);
     p.bar_length_px = (A.length + B.length + C.length) / 3;
     p.light_bars = light;
