@@ -31,9 +31,10 @@ void set_signal(ElementResult& r, const SampledProfile& sp, const ProfileFit& fi
   const double anisotropy = sp.px_per_mm_across > 0 ? sp.px_per_mm_along / sp.px_per_mm_across : 1.0;
   r.bar_pixels = pixels_per_bar(r.px_per_bar, anisotropy);
 }
-std::string clipped_note(const SampledProfile& sp) {
-  return fmt::format("{:.0f} % of its pixels are clipped (black or saturated)",
-                     100.0 * sp.pixels_clipped / std::max(1, sp.pixels_used));
+// "N % of its pixels are clipped (black or saturated)", then `rest`.
+std::string clipped_note(const SampledProfile& sp, const std::string& rest = "") {
+  return fmt::format("{:.0f} % of its pixels are clipped (black or saturated){}",
+                     100.0 * sp.pixels_clipped / std::max(1, sp.pixels_used), rest);
 }
 }  // namespace
 
@@ -71,7 +72,7 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     // What the clipping left does not pin the bars down: clipped, not a
     // failed fit or a faint element.
     r.status = clipped ? ElementStatus::clipped : ElementStatus::fit_failed;
-    if (clipped) r.note = clipped_note(sp) + "; the rest does not pin m down";
+    if (clipped) r.note = clipped_note(sp, "; the rest does not pin m down");
     return seconds;
   }
   const double m = fit.transfer(r.lp_per_mm);
@@ -105,12 +106,16 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     // clipping distorted beyond the model (a resampled photograph's
     // overshoot at the clip level): such an element stays `clipped`, as
     // it was before clipped bins were fitted as bounds.
-    r.status = clipped ? ElementStatus::clipped : ElementStatus::aliased;
-    r.note = clipped ? clipped_note(sp) + fmt::format("; the fit with them as bounds misses the data (reduced chi^2 "
-                                                       "{:.3g}, misfit as large as the bars' signal)",
-                                                       fit.chi2_reduced)
-                     : fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
-                                   r.px_per_bar, fit.chi2_reduced);
+    if (clipped) {
+      r.status = ElementStatus::clipped;
+      r.note = clipped_note(sp, fmt::format("; the fit with them as bounds misses the data (reduced chi^2 {:.3g}, "
+                                            "misfit as large as the bars' signal)",
+                                            fit.chi2_reduced));
+    } else {
+      r.status = ElementStatus::aliased;
+      r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
+                           r.px_per_bar, fit.chi2_reduced);
+    }
   } else if (m < 1e-4 && m_sigma < 1e-4) {
     // The fit sits on its bound (no modulation left): there the covariance
     // collapses, and "m = 0 +- 1e-6" would claim a certainty the data do
@@ -144,7 +149,7 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
                            fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
   }
   if (clipped && r.status == ElementStatus::ok)
-    r.note = clipped_note(sp) + ": fitted with those bins as bounds" + (r.note.empty() ? "" : "; " + r.note);
+    r.note = clipped_note(sp, ": fitted with those bins as bounds" + (r.note.empty() ? "" : "; " + r.note));
   return seconds;
 }
 

@@ -42,10 +42,14 @@ GainField fit_gain_field(const std::vector<GainSample>& samples, Vec2 patch_cent
   double scale = patch.usable() ? std::abs(patch.contrast) : 0.0;
   for (const GainSample& s : samples) scale = std::max(scale, std::abs(s.contrast));
   if (!(scale > 0)) return f;
+  // A sample's variance: its fit's, plus the profile model's own scatter.
+  const auto variance = [&](const GainSample& s) {
+    return s.contrast_sigma * s.contrast_sigma + kModelFloor * kModelFloor * scale * scale;
+  };
   cv::Matx33d normal = cv::Matx33d::zeros();
   cv::Vec3d rhs(0, 0, 0);
   for (const GainSample& s : samples) {
-    const double w = 1.0 / (s.contrast_sigma * s.contrast_sigma + kModelFloor * kModelFloor * scale * scale);
+    const double w = 1.0 / variance(s);
     const cv::Vec3d d(1.0, s.at_mm.x - patch_center_mm.x, s.at_mm.y - patch_center_mm.y);
     normal += w * d * d.t();
     rhs += w * s.contrast * d;
@@ -56,10 +60,10 @@ GainField fit_gain_field(const std::vector<GainSample>& samples, Vec2 patch_cent
   const cv::Vec3d p = cov0 * rhs;
   double chi2 = 0, mean_var = 0;
   for (const GainSample& s : samples) {
-    const double w = 1.0 / (s.contrast_sigma * s.contrast_sigma + kModelFloor * kModelFloor * scale * scale);
+    const double w = 1.0 / variance(s);
     const double r = s.contrast - (p[0] + p[1] * (s.at_mm.x - patch_center_mm.x) + p[2] * (s.at_mm.y - patch_center_mm.y));
     chi2 += w * r * r;
-    mean_var += 1 / w / samples.size();
+    mean_var += variance(s) / samples.size();
   }
   const double chi2_reduced = chi2 / (samples.size() - 3);
   // A plane that misfits more than the errors allow (the field is curved)
