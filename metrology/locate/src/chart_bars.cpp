@@ -27,12 +27,20 @@ struct Bar {
 // image and its 3x3 mean, scaled for Gaussian noise. Used to set the
 // binarisation margin so that noise alone makes no bars.
 double noise_sigma(const cv::Mat& img) {
-  cv::Mat smooth;
-  cv::blur(img, smooth, {3, 3});
-  cv::Mat diff = cv::abs(img - smooth);
+  // At every other pixel of every other row only, so the 3x3 mean is taken
+  // there alone (a full-image blur for a quarter of its values cost 6 % of
+  // chart mode).
   std::vector<float> v;
-  for (int y = 1; y < diff.rows - 1; y += 2)
-    for (int x = 1; x < diff.cols - 1; x += 2) v.push_back(diff.at<float>(y, x));
+  v.reserve(static_cast<size_t>(img.rows / 2) * (img.cols / 2));
+  for (int y = 1; y < img.rows - 1; y += 2) {
+    const float* r0 = img.ptr<float>(y - 1);
+    const float* r1 = img.ptr<float>(y);
+    const float* r2 = img.ptr<float>(y + 1);
+    for (int x = 1; x < img.cols - 1; x += 2) {
+      const float sum = r0[x - 1] + r0[x] + r0[x + 1] + r1[x - 1] + r1[x] + r1[x + 1] + r2[x - 1] + r2[x] + r2[x + 1];
+      v.push_back(std::abs(r1[x] - sum / 9));
+    }
+  }
   if (v.empty()) return 0;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   // For white noise, img - mean3x3 has sd sigma * sqrt(8/9); MAD -> sd is 1.4826.
