@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <map>
 #include <vector>
 
@@ -56,9 +58,20 @@ void collect_bars(const cv::Mat& mask, double min_width_px, std::vector<Bar>& ou
   const int n = cv::connectedComponents(mask, labels, 8, CV_32S);
   std::vector<double> sx(n, 0), sy(n, 0), sxx(n, 0), sxy(n, 0), syy(n, 0);
   std::vector<int> cnt(n, 0);
-  for (int y = 0; y < labels.rows; ++y) {
+  // A few per cent of the pixels are marked: skip unmarked runs of the mask
+  // 8 bytes at a time, and visit the marked pixels alone.
+  for (int y = 0; y < mask.rows; ++y) {
+    const unsigned char* m = mask.ptr<unsigned char>(y);
     const int* row = labels.ptr<int>(y);
-    for (int x = 0; x < labels.cols; ++x) {
+    for (int x = 0; x < mask.cols; ++x) {
+      if (x + 8 <= mask.cols) {
+        std::uint64_t word;
+        std::memcpy(&word, m + x, sizeof word);
+        if (!word) {
+          x += 7;
+          continue;
+        }
+      }
       const int l = row[x];
       if (!l) continue;
       sx[l] += x;
