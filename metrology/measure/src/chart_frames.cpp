@@ -175,7 +175,10 @@ PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const
 // three shifted ideals, twice, with the step shrinking. The correlation
 // centring (refine_shift) gets within a tenth of a bar or so; at sharp
 // edges and near the limit that residue would still read as blur.
-ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& fo, double w_mm, double* shift_mm) {
+ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& options, double w_mm,
+                                double* shift_mm) {
+  ProfileFitOptions fo = options;
+  fo.covariance = false;  // chi^2 alone is read
   ProfileData best = d;
   double total_mm = 0;
   if (shift_mm) *shift_mm = 0;

@@ -391,6 +391,15 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.residual_rms = cost->residual_rms(x);
   out.signal_rms = cost->signal_rms(x);
 
+  out.contrast = x[kContrast];
+  out.nu0_per_mm = std::exp(x[kLogNu0]);
+  out.beta = x[kBeta];
+  out.b0 = x[kB0];
+  out.b1_per_mm = x[kB1];
+  out.usable = std::isfinite(out.nu0_per_mm) && std::isfinite(out.beta);
+  if (!out.usable) out.problem = "the fit produced non-finite parameters";
+  if (!options.covariance) return out;
+
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;
   co.null_space_rank = 0;
@@ -398,6 +407,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   ceres::Covariance covariance(co);
   std::vector<std::pair<const double*, const double*>> blocks = {{x, x}};
   if (!covariance.Compute(blocks, &problem)) {
+    out.usable = false;
     out.problem = "the fit is degenerate (no contrast, or the pattern is not in the data)";
     return out;
   }
@@ -407,15 +417,9 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.var_log_nu0 = cov[kLogNu0 * kParamCount + kLogNu0] * scale;
   out.var_beta = options.fit_shape ? cov[kBeta * kParamCount + kBeta] * scale : 0.0;
   out.cov_log_nu0_beta = options.fit_shape ? cov[kLogNu0 * kParamCount + kBeta] * scale : 0.0;
-  out.contrast = x[kContrast];
   out.contrast_sigma =
       options.fit_contrast ? std::sqrt(std::max(0.0, cov[kContrast * kParamCount + kContrast] * scale)) : 0.0;
-  out.nu0_per_mm = std::exp(x[kLogNu0]);
-  out.beta = x[kBeta];
-  out.b0 = x[kB0];
-  out.b1_per_mm = x[kB1];
-  out.usable = std::isfinite(out.nu0_per_mm) && std::isfinite(out.beta) &&
-               std::isfinite(out.var_log_nu0) && std::isfinite(out.var_beta);
+  out.usable = out.usable && std::isfinite(out.var_log_nu0) && std::isfinite(out.var_beta);
   if (!out.usable) out.problem = "the fit produced non-finite parameters";
   return out;
 }

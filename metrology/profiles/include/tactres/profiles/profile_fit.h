@@ -98,6 +98,10 @@ struct ProfileFitOptions {
   // chain's blur is shared by all elements, so the previous element's fit
   // is a good start and saves iterations.
   double start_nu0_per_mm = 0, start_beta = 0;
+  // false: no covariance (var_*, contrast_sigma stay 0). For probe fits
+  // that read chi^2 alone (a shift or scale search); the covariance's SVD
+  // is a fifth of a fit. A degenerate fit is then not detected as such.
+  bool covariance = true;
 
   void validate() const;  // throws std::invalid_argument
 };
