@@ -17,12 +17,13 @@ namespace {
 
 constexpr double kPxPerMm = 30;
 
-// Groups 0..3 at 30 px/mm, printed (ink 0.05 on 0.85), slightly blurred.
-cv::Mat chart_image(bool negative) {
+// Groups first..last at px_per_mm, printed (ink 0.05 on 0.85), slightly
+// blurred.
+cv::Mat chart_image(bool negative, int first_group = 0, int last_group = 3, double px_per_mm = kPxPerMm) {
   MilStdChartOptions o;
-  o.first_group = 0;
-  o.last_group = 3;
-  const ImageF cov = coverage_raster(make_mil_std_chart(o), kPxPerMm);
+  o.first_group = first_group;
+  o.last_group = last_group;
+  const ImageF cov = coverage_raster(make_mil_std_chart(o), px_per_mm);
   cv::Mat img(cov.height, cov.width, CV_32F);
   for (int y = 0; y < cov.height; ++y)
     for (int x = 0; x < cov.width; ++x) {
@@ -95,6 +96,22 @@ TEST_CASE("chart detection: --px-per-mm anchors the group, no anchor keeps indic
   CHECK(d.elements.front().group == 0);
   CHECK(d.elements.front().element == 1);
   CHECK(d.anchor_description.find("relative") != std::string::npos);
+}
+
+TEST_CASE("chart detection: a chart too fine for the pyramid's octaves is searched in both polarities at full size") {
+  // Groups 2-3 at 20 px/mm: bars 2.5 px wide and finer, under the octaves'
+  // 1.5 px floor one octave down (1.25 px), so the octaves show no element
+  // of either polarity and full resolution must search both.
+  for (bool negative : {false, true}) {
+    CAPTURE(negative);
+    const ChartDetection d = detect_chart(chart_image(negative, 2, 3, 20), {});
+    REQUIRE(d.found);
+    CHECK(d.light_bars == negative);
+    int found = 0;
+    for (const ChartElement& e : d.elements) found += !d.patterns[e.h].predicted;
+    CHECK(found >= 2);
+    CHECK(0.5 * d.elements.front().period_px < 2.6);
+  }
 }
 
 TEST_CASE("chart detection: no chart, and bad options") {
