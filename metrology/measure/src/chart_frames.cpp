@@ -171,38 +171,23 @@ PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const
   return f;
 }
 
-// The shift the profile model itself prefers: the vertex of chi^2 over
-// three shifted ideals, twice, with the step shrinking. The correlation
-// centring (refine_shift) gets within a tenth of a bar or so; at sharp
-// edges and near the limit that residue would still read as blur.
+// The shift the profile model itself prefers: one fit with the bars'
+// shift free (ProfileFitOptions::fit_shift), within a quarter of a bar.
+// The correlation centring (refine_shift) gets within a tenth of a bar or
+// so; at sharp edges and near the limit that residue would still read as
+// blur. Where the data do not place the pattern (a degenerate fit, or the
+// shift's sigma a tenth of a bar or more: a faint pattern's fit would
+// chase its noise), the pattern stays where it was.
 ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& options, double w_mm,
                                 double* shift_mm) {
   ProfileFitOptions fo = options;
-  fo.covariance = false;  // chi^2 alone is read
-  ProfileData best = d;
-  double total_mm = 0;
+  fo.fit_shift = true;
+  fo.max_shift_mm = 0.25 * w_mm;
   if (shift_mm) *shift_mm = 0;
-  double h = 0.1 * w_mm;
-  for (int iter = 0; iter < 2; ++iter, h /= 3) {
-    double chi[3];
-    for (int i = 0; i < 3; ++i) {
-      const ProfileFit f = fit_profile(shifted_ideal(best, (i - 1) * h), fo);
-      if (!f.usable) return best;
-      chi[i] = f.chi2_reduced;
-    }
-    const double den = chi[0] - 2 * chi[1] + chi[2];
-    // No curvature worth the name: the data do not place the pattern.
-    if (!(den > 1e-3 * chi[1])) return best;
-    const double x = std::clamp(0.5 * (chi[0] - chi[2]) / den, -1.5, 1.5);
-    best = shifted_ideal(best, h * x);
-    total_mm += h * x;
-    if (shift_mm) *shift_mm = total_mm;
-    // A vertex inside the inner half of the bracket is interpolated, and
-    // chi^2 is near its parabola there: a finer bracket would move it by
-    // a small fraction of h / 3 (three fits a profile saved).
-    if (std::abs(x) <= 0.5) break;
-  }
-  return best;
+  const ProfileFit f = fit_profile(d, fo);
+  if (!f.usable || !(f.shift_sigma_mm < 0.1 * w_mm)) return d;
+  if (shift_mm) *shift_mm = f.shift_mm;
+  return shifted_ideal(d, f.shift_mm);
 }
 
 // The vertex of chi^2 over three stretched ideals. Only well-sampled,

@@ -1,5 +1,7 @@
 #include "tactres/profiles/profile_fit.h"
 
+#include "tactres/profiles/profile_sampler.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -18,7 +20,7 @@ namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // Parameter vector layout.
-enum : int { kB0 = 0, kB1, kLogNu0, kBeta, kContrast, kB2, kParamCount };
+enum : int { kB0 = 0, kB1, kLogNu0, kBeta, kContrast, kB2, kShift, kParamCount };
 
 // The model on the FFT grid, with its derivatives, for one parameter vector.
 class GridModel {
@@ -28,55 +30,67 @@ class GridModel {
   // spectrum G(nu_k) and inverting the DFT gives g(u_j) exactly for a
   // band-limited product S^ T; T decays long before the grid's Nyquist.
   // The profile is real, so only nu_k >= 0 is kept (OpenCV's CCS packing).
-  GridModel(const ProfileData& d, Signature sig) : d_(d) {
+  // movable: whether the bars' boxes (not a complement window) go into a
+  // spectrum of their own, which evaluate() shifts.
+  GridModel(const ProfileData& d, Signature sig, bool movable) : d_(d) {
     n_fft_ = cv::getOptimalDFTSize(2 * d.bin_count);
     while (n_fft_ % 2) n_fft_ = cv::getOptimalDFTSize(n_fft_ + 1);
     const int half = n_fft_ / 2;
-    const double dnu = 1.0 / (n_fft_ * d.bin_mm);
+    dnu_ = 1.0 / (n_fft_ * d.bin_mm);
     const double u_start = d.bin_center_mm(0);
-    std::vector<std::complex<double>> S(half + 1, 0.0);
+    std::vector<std::complex<double>> S(half + 1, 0.0), M(movable ? half + 1 : 0, 0.0);
     // S^(nu) = sum level (e^{-2 pi i nu a} - e^{-2 pi i nu b}) / (2 pi i nu);
     // the phase factors advance by a constant rotation per frequency step.
     for (const IdealBox& b : d.ideal) {
+      std::vector<std::complex<double>>& into = movable && !is_complement_box(d, b) ? M : S;
       const double a0 = b.u0_mm - u_start, a1 = b.u1_mm - u_start;
-      const std::complex<double> w0 = std::polar(1.0, -kTwoPi * dnu * a0);
-      const std::complex<double> w1 = std::polar(1.0, -kTwoPi * dnu * a1);
+      const std::complex<double> w0 = std::polar(1.0, -kTwoPi * dnu_ * a0);
+      const std::complex<double> w1 = std::polar(1.0, -kTwoPi * dnu_ * a1);
       std::complex<double> z0 = 1.0, z1 = 1.0;
-      S[0] += b.level * (a1 - a0);
+      into[0] += b.level * (a1 - a0);
       for (int k = 1; k <= half; ++k) {
         z0 *= w0;
         z1 *= w1;
         // (z0 - z1) / (2 pi i nu) as a product: a complex division costs several.
-        S[k] += b.level * (z0 - z1) * std::complex<double>(0, -1.0 / (kTwoPi * k * dnu));
+        into[k] += b.level * (z0 - z1) * std::complex<double>(0, -1.0 / (kTwoPi * k * dnu_));
       }
     }
+    auto finish = [&](std::complex<double> v, int k) {
+      const double nu = k * dnu_;
+      if (sig == Signature::shading) v *= std::complex<double>(0, kTwoPi * nu);  // d/du
+      v *= std::exp(-0.5 * kTwoPi * kTwoPi * d.bin_spread_var_mm2 * nu * nu);    // bin averaging
+      return v / d.bin_mm;  // continuous integral -> DFT coefficient
+    };
     s_re_.resize(half + 1);
     s_im_.resize(half + 1);
     log_nu_.resize(half + 1);
     for (int k = 0; k <= half; ++k) {
-      const double nu = k * dnu;
-      std::complex<double> v = S[k];
-      if (sig == Signature::shading) v *= std::complex<double>(0, kTwoPi * nu);  // d/du
-      v *= std::exp(-0.5 * kTwoPi * kTwoPi * d.bin_spread_var_mm2 * nu * nu);    // bin averaging
-      v /= d.bin_mm;  // continuous integral -> DFT coefficient
+      const std::complex<double> v = finish(S[k], k);
       s_re_[k] = v.real();
       s_im_[k] = v.imag();
-      log_nu_[k] = k > 0 ? std::log(nu) : 0.0;
+      log_nu_[k] = k > 0 ? std::log(k * dnu_) : 0.0;
     }
+    for (int k = 0; k < static_cast<int>(M.size()); ++k) moving_.push_back(finish(M[k], k));
     // The buffers every evaluation fills, and the inverse DFT planned once:
     // a fit evaluates the model 10-20 times, and cv::dft plans the
     // transform again on every call (a fifth of the fit), as allocating the
     // buffers each time cost a tenth.
-    for (cv::Mat* m : {&spectrum_, &spectrum_lognu0_, &spectrum_beta_, &conv_, &d_lognu0_, &d_beta_})
+    for (cv::Mat* m : {&spectrum_, &spectrum_lognu0_, &spectrum_beta_, &spectrum_shift_, &conv_, &d_lognu0_, &d_beta_,
+                       &d_shift_})
       m->create(1, n_fft_, CV_64F);
     inverse_dft_ = cv::hal::DFT2D::create(
         n_fft_, 1, CV_64F, 1, 1, CV_HAL_DFT_INVERSE | CV_HAL_DFT_SCALE | CV_HAL_DFT_REAL_OUTPUT | CV_HAL_DFT_IS_CONTINUOUS);
   }
 
   // The model on the grid, (D S (*) h)(u_j), and with `derivatives` its
-  // derivatives in log nu0 and beta, into conv(), d_lognu0() and d_beta().
-  void evaluate(double log_nu0, double beta, bool derivatives) const {
+  // derivatives in log nu0 and beta (and in the shift, when the bars move),
+  // into conv(), d_lognu0(), d_beta() and d_shift().
+  void evaluate(double log_nu0, double beta, double shift_mm, bool derivatives) const {
     const int half = n_fft_ / 2;
+    const bool moving = !moving_.empty();
+    // The bars' phase factor e^{-2 pi i nu s}, advanced by one rotation a step.
+    const std::complex<double> step = std::polar(1.0, -kTwoPi * dnu_ * shift_mm);
+    std::complex<double> phase = 1.0;
     // q grows with nu (beta > 0): past q = 40, T and T q are below 2e-16
     // of T(0) = 1, beyond what a double adds to it, and are set to zero
     // without their exponentials (blurred profiles end there early).
@@ -89,23 +103,39 @@ class GridModel {
       negligible = negligible || q > kNegligibleQ;
       const double T = k > 0 && negligible ? 0.0 : std::exp(-q);
       // dT/dlog nu0 = T q beta ; dT/dbeta = -T q ln(a)
-      put(spectrum_, k, T);
+      if (!moving) {
+        put(spectrum_, k, T);
+        if (derivatives) {
+          put(spectrum_lognu0_, k, T * q * beta);
+          put(spectrum_beta_, k, k > 0 ? -T * q * log_a : 0.0);
+        }
+        continue;
+      }
+      if (k > 0) phase *= step;
+      const std::complex<double> bars = moving_[k] * phase;
+      const std::complex<double> v = std::complex<double>(s_re_[k], s_im_[k]) + bars;
+      put_complex(spectrum_, k, v * T);
       if (derivatives) {
-        put(spectrum_lognu0_, k, T * q * beta);
-        put(spectrum_beta_, k, k > 0 ? -T * q * log_a : 0.0);
+        put_complex(spectrum_lognu0_, k, v * (T * q * beta));
+        put_complex(spectrum_beta_, k, k > 0 ? v * (-T * q * log_a) : 0.0);
+        // d/ds of e^{-2 pi i nu s}: -2 pi i nu.
+        put_complex(spectrum_shift_, k, bars * std::complex<double>(0, -kTwoPi * k * dnu_) * T);
       }
     }
     inverse(spectrum_, conv_);
     if (derivatives) {
       inverse(spectrum_lognu0_, d_lognu0_);
       inverse(spectrum_beta_, d_beta_);
+      if (moving) inverse(spectrum_shift_, d_shift_);
     }
   }
   const double* conv() const { return conv_.ptr<double>(0); }
   const double* d_lognu0() const { return d_lognu0_.ptr<double>(0); }
   const double* d_beta() const { return d_beta_.ptr<double>(0); }
+  const double* d_shift() const { return d_shift_.ptr<double>(0); }
 
   int grid_size() const { return d_.bin_count; }
+  bool moving() const { return !moving_.empty(); }
 
  private:
   // Writes S^_k * factor into CCS layout: Re0, Re1, Im1, ..., Re(N/2).
@@ -120,13 +150,26 @@ class GridModel {
     }
   }
 
+  void put_complex(cv::Mat& ccs, int k, std::complex<double> v) const {
+    double* p = ccs.ptr<double>(0);
+    const int half = n_fft_ / 2;
+    if (k == 0) p[0] = v.real();
+    else if (k == half) p[n_fft_ - 1] = v.real();
+    else {
+      p[2 * k - 1] = v.real();
+      p[2 * k] = v.imag();
+    }
+  }
+
   // The first bin_count values of the inverse DFT are the grid; the rest is padding.
   void inverse(const cv::Mat& ccs, cv::Mat& out) const { inverse_dft_->apply(ccs.data, ccs.step, out.data, out.step); }
 
   const ProfileData& d_;
   int n_fft_ = 0;
-  std::vector<double> s_re_, s_im_, log_nu_;
-  mutable cv::Mat spectrum_, spectrum_lognu0_, spectrum_beta_, conv_, d_lognu0_, d_beta_;
+  double dnu_ = 0;  // frequency step, cycles/mm
+  std::vector<double> s_re_, s_im_, log_nu_;  // the fixed part of the spectrum
+  std::vector<std::complex<double>> moving_;   // the bars' part, when they move
+  mutable cv::Mat spectrum_, spectrum_lognu0_, spectrum_beta_, spectrum_shift_, conv_, d_lognu0_, d_beta_, d_shift_;
   cv::Ptr<cv::hal::DFT2D> inverse_dft_;
 };
 
@@ -201,10 +244,11 @@ class ProfileCost final : public ceres::CostFunction {
   // with the contrast x[kContrast] + slope u at u.
   void evaluate(const double* x, double* residuals, double* jacobian, double contrast_slope_per_mm) const {
     const bool want_j = jacobian != nullptr;
-    model_.evaluate(x[kLogNu0], x[kBeta], want_j);
+    model_.evaluate(x[kLogNu0], x[kBeta], x[kShift], want_j);
     const double* conv = model_.conv();
     const double* dn = want_j ? model_.d_lognu0() : nullptr;
     const double* db = want_j ? model_.d_beta() : nullptr;
+    const double* ds = want_j && model_.moving() ? model_.d_shift() : nullptr;
     for (size_t r = 0; r < bins_.size(); ++r) {
       const Bin& b = bins_[r];
       auto at = [&](const double* v) {
@@ -233,6 +277,7 @@ class ProfileCost final : public ceres::CostFunction {
         J[kBeta] = light * c * at(db) * w;
         J[kContrast] = light * sig * w;
         J[kB2] = u * u * (1 + c * sig) * w;
+        J[kShift] = ds ? light * c * at(ds) * w : 0.0;
       }
     }
   }
@@ -260,6 +305,8 @@ void ProfileFitOptions::validate() const {
   if (!std::isfinite(contrast_slope_per_mm))
     throw std::invalid_argument("profile fit: the contrast's slope must be finite");
   if (max_iterations < 1) throw std::invalid_argument("profile fit: max_iterations must be >= 1");
+  if (fit_shift && !(std::isfinite(max_shift_mm) && max_shift_mm > 0))
+    throw std::invalid_argument("profile fit: a fitted shift needs a finite max_shift_mm > 0");
 }
 
 double ProfileFit::transfer(double f) const {
@@ -304,10 +351,10 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
     return out;
   }
 
-  GridModel model(data, options.signature);
+  GridModel model(data, options.signature, options.fit_shift);
   auto* cost = new ProfileCost(data, model, options.contrast_slope_per_mm);
   const int free_params = 3 + (options.fit_shape ? 1 : 0) + (options.fit_contrast ? 1 : 0) +
-                          (options.quadratic_background ? 1 : 0);
+                          (options.quadratic_background ? 1 : 0) + (options.fit_shift ? 1 : 0);
   // Bounds carry no noise to count degrees of freedom with: the
   // measurements alone must pin the model down.
   const int measured = cost->residual_count() - cost->bound_count();
@@ -339,7 +386,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
           : 2.0;
   double x[kParamCount] = {ground / weight, 0.0,
                            std::clamp(std::log(nu0_start), std::log(1e-3), std::log(2.0 / data.bin_mm)),
-                           beta_start, options.fit_contrast ? -0.5 : options.contrast, 0.0};
+                           beta_start, options.fit_contrast ? -0.5 : options.contrast, 0.0, 0.0};
 
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -349,6 +396,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   if (!options.fit_shape) fixed.push_back(kBeta);
   if (!options.fit_contrast) fixed.push_back(kContrast);
   if (!options.quadratic_background) fixed.push_back(kB2);
+  if (!options.fit_shift) fixed.push_back(kShift);
   if (!fixed.empty()) problem.SetManifold(x, new ceres::SubsetManifold(kParamCount, fixed));
   problem.SetParameterLowerBound(x, kLogNu0, std::log(1e-3));
   problem.SetParameterUpperBound(x, kLogNu0, std::log(2.0 / data.bin_mm));
@@ -358,6 +406,10 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   // photograph) reached c = -1.8, which halved every m scaled by it.
   if (options.fit_contrast && options.signature == Signature::albedo)
     problem.SetParameterLowerBound(x, kContrast, -1.0);
+  if (options.fit_shift) {
+    problem.SetParameterLowerBound(x, kShift, -options.max_shift_mm);
+    problem.SetParameterUpperBound(x, kShift, options.max_shift_mm);
+  }
   if (options.fit_shape) {
     problem.SetParameterLowerBound(x, kBeta, options.beta_min);
     problem.SetParameterUpperBound(x, kBeta, options.beta_max);
@@ -396,7 +448,8 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.beta = x[kBeta];
   out.b0 = x[kB0];
   out.b1_per_mm = x[kB1];
-  out.usable = std::isfinite(out.nu0_per_mm) && std::isfinite(out.beta);
+  out.shift_mm = x[kShift];
+  out.usable = std::isfinite(out.nu0_per_mm) && std::isfinite(out.beta) && std::isfinite(out.shift_mm);
   if (!out.usable) out.problem = "the fit produced non-finite parameters";
   if (!options.covariance) return out;
 
@@ -417,6 +470,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.var_log_nu0 = cov[kLogNu0 * kParamCount + kLogNu0] * scale;
   out.var_beta = options.fit_shape ? cov[kBeta * kParamCount + kBeta] * scale : 0.0;
   out.cov_log_nu0_beta = options.fit_shape ? cov[kLogNu0 * kParamCount + kBeta] * scale : 0.0;
+  out.shift_sigma_mm = options.fit_shift ? std::sqrt(std::max(0.0, cov[kShift * kParamCount + kShift] * scale)) : 0.0;
   out.contrast_sigma =
       options.fit_contrast ? std::sqrt(std::max(0.0, cov[kContrast * kParamCount + kContrast] * scale)) : 0.0;
   out.usable = out.usable && std::isfinite(out.var_log_nu0) && std::isfinite(out.var_beta);

@@ -91,6 +91,41 @@ TEST_CASE("albedo profile: m equals the Gaussian MTF at the bar frequency") {
   }
 }
 
+TEST_CASE("a fitted shift finds bars placed off the ideal, and recovers m that the misplacement reads as blur") {
+  const Bars bars{0.07};
+  const double f = 1 / (2 * bars.w);
+  const double s = 0.4 * bars.w, c = -0.8;
+  const double m_true = std::exp(-2 * kPi * kPi * s * s * f * f);
+  for (double offset_bars : {-0.15, 0.12}) {
+    CAPTURE(offset_bars);
+    const double offset_mm = offset_bars * bars.w;
+    auto truth = [&](double u) { return 200.0 * (1 + c * bars.blurred(u - offset_mm, s)); };
+    const ProfileData d = make_profile(bars, bars.w / 12, 8 * bars.w, 4 * bars.w, truth, 0, nullptr);
+    ProfileFitOptions o;
+    o.contrast = c;
+    const ProfileFit fixed = fit_profile(d, o);
+    o.fit_shift = true;
+    o.max_shift_mm = 0.25 * bars.w;
+    const ProfileFit free = fit_profile(d, o);
+    REQUIRE(fixed.usable);
+    REQUIRE(free.usable);
+    CHECK(free.shift_mm == doctest::Approx(offset_mm).epsilon(0.02));
+    CHECK(free.shift_sigma_mm < 0.01 * bars.w);
+    CHECK(std::abs(free.transfer(f) - m_true) < 2e-3);
+    CHECK(fixed.transfer(f) < m_true - 0.02);  // the misplaced ideal reads as blur
+  }
+  // Bounded: an offset beyond the range ends at its edge, not beyond.
+  auto far = [&](double u) { return 200.0 * (1 + c * bars.blurred(u - 0.6 * bars.w, s)); };
+  ProfileFitOptions o;
+  o.contrast = c;
+  o.fit_shift = true;
+  o.max_shift_mm = 0.25 * bars.w;
+  const ProfileFit edge = fit_profile(make_profile(bars, bars.w / 12, 8 * bars.w, 4 * bars.w, far, 0, nullptr), o);
+  if (edge.usable) CHECK(std::abs(edge.shift_mm) <= 0.25 * bars.w + 1e-12);
+  o.max_shift_mm = 0;
+  CHECK_THROWS_AS(o.validate(), std::invalid_argument);
+}
+
 TEST_CASE("clipped bins as bounds: a censored fit keeps m where clipped values as data bias it") {
   // Dark bars on a ground of 200, contrast -0.95: the bar cores fall to
   // ~10-20 and a camera whose black sits at 60 clips them there. Read as

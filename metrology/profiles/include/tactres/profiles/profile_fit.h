@@ -102,6 +102,13 @@ struct ProfileFitOptions {
   // that read chi^2 alone (a shift or scale search); the covariance's SVD
   // is a fifth of a fit. A degenerate fit is then not detected as such.
   bool covariance = true;
+  // true: the pattern's bars (not a negative chart's complement window,
+  // profile_sampler.h) move along u by a fitted shift within
+  // +-max_shift_mm, one more parameter (ProfileFit::shift_mm). Chart mode
+  // places a pattern from its binarised bars, a tenth of a bar off or so;
+  // one fit with the shift free replaces a search over shifted ideals.
+  bool fit_shift = false;
+  double max_shift_mm = 0;
 
   void validate() const;  // throws std::invalid_argument
 };
@@ -112,6 +119,7 @@ struct ProfileFit {
   double nu0_per_mm = 0, beta = 2;
   double contrast = 0, contrast_sigma = 0;
   double b0 = 0, b1_per_mm = 0;
+  double shift_mm = 0, shift_sigma_mm = 0;  // with fit_shift (sigma: with covariance)
   // Covariance of (log nu0, beta) from Ceres, scaled by the reduced chi^2
   // when the model fits worse than the noise (never scaled down).
   double var_log_nu0 = 0, var_beta = 0, cov_log_nu0_beta = 0;
