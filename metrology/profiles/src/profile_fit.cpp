@@ -140,16 +140,11 @@ class GridModel {
  private:
   // Writes S^_k * factor into CCS layout: Re0, Re1, Im1, ..., Re(N/2).
   void put(cv::Mat& ccs, int k, double factor) const {
-    double* p = ccs.ptr<double>(0);
-    const int half = n_fft_ / 2;
-    if (k == 0) p[0] = s_re_[0] * factor;
-    else if (k == half) p[n_fft_ - 1] = s_re_[k] * factor;
-    else {
-      p[2 * k - 1] = s_re_[k] * factor;
-      p[2 * k] = s_im_[k] * factor;
-    }
+    put_complex(ccs, k, {s_re_[k] * factor, s_im_[k] * factor});
   }
 
+  // Writes v as the k-th coefficient (an imaginary part at nu = 0 and at
+  // Nyquist has no place in CCS, and is dropped).
   void put_complex(cv::Mat& ccs, int k, std::complex<double> v) const {
     double* p = ccs.ptr<double>(0);
     const int half = n_fft_ / 2;
