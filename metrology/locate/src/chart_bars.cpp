@@ -274,7 +274,7 @@ void collect_all_bars(const cv::Mat& img, double min_bar_px, std::vector<Bar>& d
   // Then full resolution, which costs three times the octaves together. A
   // chart has one polarity, and where the octaves show elements of one
   // polarity only (on every chart of tests/realdata that shows any), the
-  // other is not searched there: a quarter of detecting a chart saved.
+  // other is not searched there (a sixth of detecting the generated chart).
   const bool dark_seen = shows_element(coarse_dark, false), light_seen = shows_element(coarse_light, true);
   const bool both = dark_seen == light_seen;
   collect_bars_at(img, margin(img), min_bar_px * 0.8, both || dark_seen ? &dark : nullptr,

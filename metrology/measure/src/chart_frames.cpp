@@ -175,9 +175,11 @@ PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const
 // shift free (ProfileFitOptions::fit_shift), within a quarter of a bar.
 // The correlation centring (refine_shift) gets within a tenth of a bar or
 // so; at sharp edges and near the limit that residue would still read as
-// blur. Where the data do not place the pattern (a degenerate fit, or the
+// blur. Where the data do not place the pattern (a degenerate fit; the
 // shift's sigma a tenth of a bar or more: a faint pattern's fit would
-// chase its noise), the pattern stays where it was.
+// chase its noise; or the shift stopped at the range's edge, where Ceres'
+// covariance, blind to the bound, still reads small), the pattern stays
+// where it was.
 ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& options, double w_mm,
                                 double* shift_mm) {
   ProfileFitOptions fo = options;
@@ -185,7 +187,7 @@ ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& o
   fo.max_shift_mm = 0.25 * w_mm;
   if (shift_mm) *shift_mm = 0;
   const ProfileFit f = fit_profile(d, fo);
-  if (!f.usable || !(f.shift_sigma_mm < 0.1 * w_mm)) return d;
+  if (!f.usable || !(f.shift_sigma_mm < 0.1 * w_mm) || !(std::abs(f.shift_mm) < 0.99 * fo.max_shift_mm)) return d;
   if (shift_mm) *shift_mm = f.shift_mm;
   return shifted_ideal(d, f.shift_mm);
 }

@@ -411,7 +411,7 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   }
 
   ceres::Solver::Options so;
-  // Six parameters: the normal equations are tiny, and Cholesky on them
+  // Up to seven parameters: the normal equations are tiny, and Cholesky on them
   // costs less than a QR of the tall Jacobian (Ceres scales its columns).
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   // With bounds, Ceres follows every trust-region step with a projected
@@ -444,9 +444,6 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.b0 = x[kB0];
   out.b1_per_mm = x[kB1];
   out.shift_mm = x[kShift];
-  out.usable = std::isfinite(out.nu0_per_mm) && std::isfinite(out.beta) && std::isfinite(out.shift_mm);
-  if (!out.usable) out.problem = "the fit produced non-finite parameters";
-  if (!options.covariance) return out;
 
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;
@@ -455,7 +452,6 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   ceres::Covariance covariance(co);
   std::vector<std::pair<const double*, const double*>> blocks = {{x, x}};
   if (!covariance.Compute(blocks, &problem)) {
-    out.usable = false;
     out.problem = "the fit is degenerate (no contrast, or the pattern is not in the data)";
     return out;
   }
@@ -465,10 +461,12 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.var_log_nu0 = cov[kLogNu0 * kParamCount + kLogNu0] * scale;
   out.var_beta = options.fit_shape ? cov[kBeta * kParamCount + kBeta] * scale : 0.0;
   out.cov_log_nu0_beta = options.fit_shape ? cov[kLogNu0 * kParamCount + kBeta] * scale : 0.0;
-  out.shift_sigma_mm = options.fit_shift ? std::sqrt(std::max(0.0, cov[kShift * kParamCount + kShift] * scale)) : 0.0;
+  const double var_shift = options.fit_shift ? cov[kShift * kParamCount + kShift] * scale : 0.0;
+  out.shift_sigma_mm = std::sqrt(std::max(0.0, var_shift));
   out.contrast_sigma =
       options.fit_contrast ? std::sqrt(std::max(0.0, cov[kContrast * kParamCount + kContrast] * scale)) : 0.0;
-  out.usable = out.usable && std::isfinite(out.var_log_nu0) && std::isfinite(out.var_beta);
+  out.usable = std::isfinite(out.nu0_per_mm) && std::isfinite(out.beta) && std::isfinite(out.shift_mm) &&
+               std::isfinite(out.var_log_nu0) && std::isfinite(out.var_beta) && std::isfinite(var_shift);
   if (!out.usable) out.problem = "the fit produced non-finite parameters";
   return out;
 }

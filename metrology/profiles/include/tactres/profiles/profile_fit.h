@@ -98,10 +98,6 @@ struct ProfileFitOptions {
   // chain's blur is shared by all elements, so the previous element's fit
   // is a good start and saves iterations.
   double start_nu0_per_mm = 0, start_beta = 0;
-  // false: no covariance (var_*, contrast_sigma stay 0). For probe fits
-  // that read chi^2 alone (a shift or scale search); the covariance's SVD
-  // is a fifth of a fit. A degenerate fit is then not detected as such.
-  bool covariance = true;
   // true: the pattern's bars (not a negative chart's complement window,
   // profile_sampler.h) move along u by a fitted shift within
   // +-max_shift_mm, one more parameter (ProfileFit::shift_mm). Chart mode
