@@ -229,10 +229,10 @@ void to_full_resolution(std::vector<Bar>& bars, int level) {
   }
 }
 
-// Whether bar candidates of one polarity make at least one element (two
-// perpendicular patterns side by side).
-bool shows_element(const std::vector<Bar>& bars, bool light) {
-  return !pair_patterns(find_triplets(deduplicate(bars), light)).elements.empty();
+// How many elements (two perpendicular patterns side by side) bar
+// candidates of one polarity make.
+size_t element_count(const std::vector<Bar>& bars, bool light) {
+  return pair_patterns(find_triplets(deduplicate(bars), light)).elements.size();
 }
 
 // Bar candidates of each polarity in `img` against the local mean over a
@@ -272,13 +272,14 @@ void collect_all_bars(const cv::Mat& img, double min_bar_px, std::vector<Bar>& d
     coarse_light.insert(coarse_light.end(), li.begin(), li.end());
   }
   // Then full resolution, which costs three times the octaves together. A
-  // chart has one polarity, and where the octaves show elements of one
-  // polarity only (on every chart of tests/realdata that shows any), the
-  // other is not searched there (a sixth of detecting the generated chart).
-  const bool dark_seen = shows_element(coarse_dark, false), light_seen = shows_element(coarse_light, true);
-  const bool both = dark_seen == light_seen;
-  collect_bars_at(img, margin(img), min_bar_px * 0.8, both || dark_seen ? &dark : nullptr,
-                  both || light_seen ? &light : nullptr);
+  // chart has one polarity. Where the octaves show two or more elements of
+  // one polarity and none of the other (every chart of tests/realdata that
+  // shows two), the other is not searched there: a sixth of detecting the
+  // generated chart. One element is not taken as evidence: a stray one of
+  // the wrong polarity must not hide a chart too fine for the octaves.
+  const size_t n_dark = element_count(coarse_dark, false), n_light = element_count(coarse_light, true);
+  const bool dark_only = n_dark >= 2 && n_light == 0, light_only = n_light >= 2 && n_dark == 0;
+  collect_bars_at(img, margin(img), min_bar_px * 0.8, light_only ? nullptr : &dark, dark_only ? nullptr : &light);
   dark.insert(dark.end(), coarse_dark.begin(), coarse_dark.end());
   light.insert(light.end(), coarse_light.begin(), coarse_light.end());
 }

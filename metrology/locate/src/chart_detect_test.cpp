@@ -114,6 +114,30 @@ TEST_CASE("chart detection: a chart too fine for the pyramid's octaves is search
   }
 }
 
+TEST_CASE("chart detection: one stray element of the other polarity does not hide a chart too fine for the octaves") {
+  // The fine negative chart above, and beside it a bright card printed
+  // with one coarse dark element (bars 8 px wide): the octaves see that
+  // element and none of the chart's light bars.
+  const cv::Mat chart = chart_image(true, 2, 3, 20);
+  cv::Mat img(std::max(chart.rows, 200), chart.cols + 220, CV_32F, cv::Scalar(0.05));
+  chart.copyTo(img(cv::Rect(0, 0, chart.cols, chart.rows)));
+  const int x0 = chart.cols + 20, y0 = 10;
+  img(cv::Rect(x0, y0, 180, 180)).setTo(0.85);
+  constexpr int kBar = 8;
+  for (int k = -1; k <= 1; ++k) {
+    // H triplet (bars along x) left of the V triplet (bars along y), 3.5 periods apart.
+    img(cv::Rect(x0 + 60 - 20, y0 + 90 + 2 * k * kBar - kBar / 2, 40, kBar)).setTo(0.05);
+    img(cv::Rect(x0 + 116 + 2 * k * kBar - kBar / 2, y0 + 90 - 20, kBar, 40)).setTo(0.05);
+  }
+  cv::GaussianBlur(img, img, {0, 0}, 0.8);
+  const ChartDetection d = detect_chart(img, {});
+  REQUIRE(d.found);
+  CHECK(d.light_bars);
+  int found = 0;
+  for (const ChartElement& e : d.elements) found += !d.patterns[e.h].predicted;
+  CHECK(found >= 2);
+}
+
 TEST_CASE("chart detection: no chart, and bad options") {
   cv::Mat noise(300, 400, CV_32F);
   cv::randn(noise, 0.5, 0.05);
