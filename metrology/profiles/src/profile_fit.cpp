@@ -103,23 +103,15 @@ class GridModel {
       negligible = negligible || q > kNegligibleQ;
       const double T = k > 0 && negligible ? 0.0 : std::exp(-q);
       // dT/dlog nu0 = T q beta ; dT/dbeta = -T q ln(a)
-      if (!moving) {
-        put(spectrum_, k, T);
-        if (derivatives) {
-          put(spectrum_lognu0_, k, T * q * beta);
-          put(spectrum_beta_, k, k > 0 ? -T * q * log_a : 0.0);
-        }
-        continue;
-      }
-      if (k > 0) phase *= step;
-      const std::complex<double> bars = moving_[k] * phase;
+      if (moving && k > 0) phase *= step;
+      const std::complex<double> bars = moving ? moving_[k] * phase : 0.0;
       const std::complex<double> v = std::complex<double>(s_re_[k], s_im_[k]) + bars;
-      put_complex(spectrum_, k, v * T);
+      put(spectrum_, k, v * T);
       if (derivatives) {
-        put_complex(spectrum_lognu0_, k, v * (T * q * beta));
-        put_complex(spectrum_beta_, k, k > 0 ? v * (-T * q * log_a) : 0.0);
+        put(spectrum_lognu0_, k, v * (T * q * beta));
+        put(spectrum_beta_, k, k > 0 ? v * (-T * q * log_a) : 0.0);
         // d/ds of e^{-2 pi i nu s}: -2 pi i nu.
-        put_complex(spectrum_shift_, k, bars * std::complex<double>(0, -kTwoPi * k * dnu_) * T);
+        if (moving) put(spectrum_shift_, k, bars * std::complex<double>(0, -kTwoPi * k * dnu_) * T);
       }
     }
     inverse(spectrum_, conv_);
@@ -138,14 +130,10 @@ class GridModel {
   bool moving() const { return !moving_.empty(); }
 
  private:
-  // Writes S^_k * factor into CCS layout: Re0, Re1, Im1, ..., Re(N/2).
-  void put(cv::Mat& ccs, int k, double factor) const {
-    put_complex(ccs, k, {s_re_[k] * factor, s_im_[k] * factor});
-  }
-
-  // Writes v as the k-th coefficient (an imaginary part at nu = 0 and at
-  // Nyquist has no place in CCS, and is dropped).
-  void put_complex(cv::Mat& ccs, int k, std::complex<double> v) const {
+  // Writes v as the k-th coefficient in CCS layout: Re0, Re1, Im1, ...,
+  // Re(N/2) (an imaginary part at nu = 0 and at Nyquist has no place there,
+  // and is dropped).
+  void put(cv::Mat& ccs, int k, std::complex<double> v) const {
     double* p = ccs.ptr<double>(0);
     const int half = n_fft_ / 2;
     if (k == 0) p[0] = v.real();
@@ -438,13 +426,6 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.residual_rms = cost->residual_rms(x);
   out.signal_rms = cost->signal_rms(x);
 
-  out.contrast = x[kContrast];
-  out.nu0_per_mm = std::exp(x[kLogNu0]);
-  out.beta = x[kBeta];
-  out.b0 = x[kB0];
-  out.b1_per_mm = x[kB1];
-  out.shift_mm = x[kShift];
-
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;
   co.null_space_rank = 0;
@@ -463,8 +444,14 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.cov_log_nu0_beta = options.fit_shape ? cov[kLogNu0 * kParamCount + kBeta] * scale : 0.0;
   const double var_shift = options.fit_shift ? cov[kShift * kParamCount + kShift] * scale : 0.0;
   out.shift_sigma_mm = std::sqrt(std::max(0.0, var_shift));
+  out.contrast = x[kContrast];
   out.contrast_sigma =
       options.fit_contrast ? std::sqrt(std::max(0.0, cov[kContrast * kParamCount + kContrast] * scale)) : 0.0;
+  out.nu0_per_mm = std::exp(x[kLogNu0]);
+  out.beta = x[kBeta];
+  out.b0 = x[kB0];
+  out.b1_per_mm = x[kB1];
+  out.shift_mm = x[kShift];
   out.usable = std::isfinite(out.nu0_per_mm) && std::isfinite(out.beta) && std::isfinite(out.shift_mm) &&
                std::isfinite(out.var_log_nu0) && std::isfinite(out.var_beta) && std::isfinite(var_shift);
   if (!out.usable) out.problem = "the fit produced non-finite parameters";
