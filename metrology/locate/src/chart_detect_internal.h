@@ -1,6 +1,7 @@
 #pragma once
 // Private to locate: the stages of detect_chart (chart_detect.h).
-//   chart_bars.cpp         steps 1-3: bars, three-bar patterns, elements
+//   chart_bars.cpp         steps 1-3: bars (components by runs), three-bar
+//                          patterns, elements
 //   chart_arrangement.cpp  the standard arrangement: its steps between
 //                          elements, the group labels, the column ends
 //   chart_detect.cpp       the rest: indices, anchor, partial elements
@@ -61,6 +62,17 @@ struct PatternsFound {
 // light.
 enum class ImageScale { linear, stabilised };
 PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, ImageScale scale);
+
+// One horizontal run of marked pixels of a mask: x0..x1 inclusive, row y.
+struct MaskRun {
+  int x0, x1, y;
+};
+// The 8-connected components of a CV_8U mask (nonzero = marked) as runs:
+// `runs` receives every run in raster order, and the result holds, per
+// run, the index of its component's first run (the same partition as
+// cv::connectedComponents with connectivity 8). Work is per run, not per
+// pixel: unmarked stretches are skipped 8 bytes at a time.
+std::vector<int> run_components(const cv::Mat& mask, std::vector<MaskRun>& runs);
 
 // Elements: perpendicular patterns of the same period side by side, each
 // pattern in one element at most (the best-fitting pairs first).

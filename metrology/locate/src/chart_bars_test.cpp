@@ -1,0 +1,73 @@
+// The run-based component labelling of chart detection (run_components,
+// chart_detect_internal.h) against OpenCV's: the same 8-connected
+// partition of random masks of every density, widths that are and are not
+// multiples of 8, and the shapes that test the diagonal rule.
+#include <map>
+#include <random>
+
+#include <doctest/doctest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "chart_detect_internal.h"
+
+using namespace tactres;
+using namespace tactres::locate_detail;
+
+namespace {
+
+// True when run_components and cv::connectedComponents (connectivity 8)
+// partition the marked pixels of `mask` alike: each root maps to one label
+// and each label to one root. Also returns the component count.
+bool same_partition(const cv::Mat& mask, int* components = nullptr) {
+  std::vector<MaskRun> runs;
+  const std::vector<int> root = run_components(mask, runs);
+  cv::Mat labels;
+  const int n = cv::connectedComponents(mask, labels, 8, CV_32S);
+  std::map<int, int> root_to_label, label_to_root;
+  long long marked = 0;
+  for (size_t i = 0; i < runs.size(); ++i)
+    for (int x = runs[i].x0; x <= runs[i].x1; ++x) {
+      const int l = labels.at<int>(runs[i].y, x);
+      if (l == 0) return false;  // a run over an unmarked pixel
+      ++marked;
+      const auto [a, new_a] = root_to_label.emplace(root[i], l);
+      const auto [b, new_b] = label_to_root.emplace(l, root[i]);
+      if (a->second != l || b->second != root[i]) return false;
+    }
+  if (components) *components = static_cast<int>(root_to_label.size());
+  return marked == cv::countNonZero(mask) && static_cast<int>(root_to_label.size()) == n - 1;
+}
+
+}  // namespace
+
+TEST_CASE("run_components: the 8-connected partition of cv::connectedComponents") {
+  std::mt19937 rng(11);
+  for (const int width : {1, 7, 8, 9, 64, 203})
+    for (const double density : {0.0, 0.02, 0.3, 0.6, 1.0}) {
+      CAPTURE(width);
+      CAPTURE(density);
+      cv::Mat mask(37, width, CV_8U);
+      std::bernoulli_distribution marked(density);
+      for (int y = 0; y < mask.rows; ++y)
+        for (int x = 0; x < width; ++x) mask.at<unsigned char>(y, x) = marked(rng) ? 255 : 0;
+      CHECK(same_partition(mask));
+    }
+}
+
+TEST_CASE("run_components: diagonal neighbours join, a one-pixel gap does not; U shapes merge") {
+  cv::Mat mask(8, 24, CV_8U, cv::Scalar(0));
+  // Two runs touching only at a corner: one component.
+  mask(cv::Rect(2, 1, 3, 1)).setTo(255);
+  mask(cv::Rect(5, 2, 3, 1)).setTo(255);
+  // Two runs a pixel apart, one above the other: two components.
+  mask(cv::Rect(12, 1, 3, 1)).setTo(255);
+  mask(cv::Rect(16, 2, 3, 1)).setTo(255);
+  // A U whose arms meet only on its last row: one component, found late.
+  mask(cv::Rect(1, 4, 1, 4)).setTo(255);
+  mask(cv::Rect(9, 4, 1, 4)).setTo(255);
+  mask(cv::Rect(1, 7, 9, 1)).setTo(255);
+  int components = 0;
+  CHECK(same_partition(mask, &components));
+  CHECK(components == 4);
+}
