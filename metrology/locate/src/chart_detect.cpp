@@ -58,9 +58,11 @@ using namespace locate_detail;
 
 namespace {
 
-// A copy of the luminance with NaN (masked) pixels set to the median, so
-// that they make no edges; nullopt if no pixel is finite.
+// The luminance with NaN (masked) pixels set to the median, so that they
+// make no edges (a copy; the luminance itself when every pixel is finite,
+// as in most captures); nullopt if no pixel is finite.
 std::optional<cv::Mat> with_finite_pixels(const cv::Mat& luminance) {
+  if (cv::checkRange(luminance)) return luminance;
   cv::Mat img = luminance.clone();
   std::vector<float> finite;
   for (int y = 0; y < img.rows; y += 3)
