@@ -161,18 +161,67 @@ void recognise_arrangement(ChartDetection& D, const ScaleField& field) {
 
 namespace {
 
+// The image around a label's box (element bar widths, in frame f), with
+// room for the blur: the pixels inside the box and their values, the same
+// for every candidate label.
+struct LabelWindow {
+  int ix0 = 0, iy0 = 0, nx = 0, ny = 0;
+  std::vector<int> inside;    // r * nx + c of the pixels inside the box, in raster order
+  std::vector<double> value;  // the image at those pixels
+  double sv = 0, svv = 0;     // their sum and sum of squares
+};
+
+// Where a box's corners fall in the image, as a polygon in a raster of
+// `scale` samples a pixel from (ix0, iy0), in fixed point with kShift bits.
+constexpr int kShift = 4;
+std::vector<cv::Point> box_polygon(const ElementFrame& f, const RectMm& r, int ix0, int iy0, int scale,
+                                   double offset) {
+  std::vector<cv::Point> pts;
+  for (Vec2 c : {Vec2{r.x0, r.y0}, Vec2{r.x1, r.y0}, Vec2{r.x1, r.y1}, Vec2{r.x0, r.y1}}) {
+    const Vec2 q = f.to_image(c);
+    pts.push_back({static_cast<int>(std::lround(((q.x - ix0) * scale + offset) * (1 << kShift))),
+                   static_cast<int>(std::lround(((q.y - iy0) * scale + offset) * (1 << kShift)))});
+  }
+  return pts;
+}
+
+// nullopt when the box is not fully in view.
+std::optional<LabelWindow> label_window(const cv::Mat& img, const ElementFrame& f, const RectMm& box) {
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (Vec2 c : {Vec2{box.x0, box.y0}, Vec2{box.x1, box.y0}, Vec2{box.x0, box.y1}, Vec2{box.x1, box.y1}}) {
+    const Vec2 q = f.to_image(c);
+    x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+  }
+  if (x0 < 0 || y0 < 0 || x1 > img.cols - 1 || y1 > img.rows - 1) return std::nullopt;
+  constexpr int kPad = 12;
+  LabelWindow w;
+  w.ix0 = static_cast<int>(std::floor(x0)) - kPad, w.iy0 = static_cast<int>(std::floor(y0)) - kPad;
+  w.nx = static_cast<int>(std::ceil(x1)) + kPad - w.ix0 + 1, w.ny = static_cast<int>(std::ceil(y1)) + kPad - w.iy0 + 1;
+  cv::Mat inside(w.ny, w.nx, CV_8U, cv::Scalar(0));
+  cv::fillConvexPoly(inside, box_polygon(f, box, w.ix0, w.iy0, 1, 0), cv::Scalar(1), cv::LINE_8, kShift);
+  for (int r = 0; r < w.ny; ++r)
+    for (int c = 0; c < w.nx; ++c) {
+      if (!inside.at<unsigned char>(r, c)) continue;
+      const double v = img.at<float>(w.iy0 + r, w.ix0 + c);
+      w.inside.push_back(r * w.nx + c);
+      w.value.push_back(v);
+      w.sv += v, w.svv += v * v;
+    }
+  return w;
+}
+
 // How well the label `text` (seven-segment glyphs, as the chart draws
-// them) explains the image in the box `box` (element bar widths, in frame
-// f): the residual sum of squares of value = a + b ink, and b. The ink is
-// the glyphs' pixel coverage blurred by a Gaussian, at the blur (0..4 px)
-// that fits best, so that a soft image is read as well as a sharp one.
+// them) explains the image in the window's box: the residual sum of
+// squares of value = a + b ink, and b. The ink is the glyphs' pixel
+// coverage blurred by a Gaussian, at the blur (0..4 px) that fits best, so
+// that a soft image is read as well as a sharp one.
 struct LabelFit {
   double sse = 1e300, slope = 0, r2 = 0;
   int n = 0;
 };
 
-LabelFit fit_label(const cv::Mat& img, const ElementFrame& f, const std::string& text, Vec2 origin, double height,
-                   const RectMm& box) {
+LabelFit fit_label(const LabelWindow& win, const ElementFrame& f, const std::string& text, Vec2 origin,
+                   double height) {
   std::vector<RectMm> rects;
   const double w = 0.6 * height, t = 0.2 * height, gap = 0.3 * height;
   double x = origin.x;
@@ -180,50 +229,30 @@ LabelFit fit_label(const cv::Mat& img, const ElementFrame& f, const std::string&
     append_glyph(c, {x, origin.y}, w, height, t, rects);
     x += w + gap;
   }
-  // The box's image bounds, with room for the blur.
-  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-  for (Vec2 c : {Vec2{box.x0, box.y0}, Vec2{box.x1, box.y0}, Vec2{box.x0, box.y1}, Vec2{box.x1, box.y1}}) {
-    const Vec2 q = f.to_image(c);
-    x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
-  }
-  LabelFit out;
-  if (x0 < 0 || y0 < 0 || x1 > img.cols - 1 || y1 > img.rows - 1) return out;  // not fully in view
-  constexpr int kPad = 12;
-  const int ix0 = static_cast<int>(std::floor(x0)) - kPad, iy0 = static_cast<int>(std::floor(y0)) - kPad;
-  const int nx = static_cast<int>(std::ceil(x1)) + kPad - ix0 + 1, ny = static_cast<int>(std::ceil(y1)) + kPad - iy0 + 1;
   // The glyphs' coverage of each pixel: filled at 3 x 3 samples a pixel
   // (sample j of a row at image x = ix0 + (j - 1) / 3), then averaged.
-  constexpr int kSamples = 3, kShift = 4;
-  const auto polygon = [&](const RectMm& r, int scale, double offset) {
-    std::vector<cv::Point> pts;
-    for (Vec2 c : {Vec2{r.x0, r.y0}, Vec2{r.x1, r.y0}, Vec2{r.x1, r.y1}, Vec2{r.x0, r.y1}}) {
-      const Vec2 q = f.to_image(c);
-      pts.push_back({static_cast<int>(std::lround(((q.x - ix0) * scale + offset) * (1 << kShift))),
-                     static_cast<int>(std::lround(((q.y - iy0) * scale + offset) * (1 << kShift)))});
-    }
-    return pts;
-  };
-  cv::Mat fine(kSamples * ny, kSamples * nx, CV_8U, cv::Scalar(0));
-  for (const RectMm& rr : rects) cv::fillConvexPoly(fine, polygon(rr, kSamples, 1), cv::Scalar(255), cv::LINE_8, kShift);
+  constexpr int kSamples = 3;
+  cv::Mat fine(kSamples * win.ny, kSamples * win.nx, CV_8U, cv::Scalar(0));
+  for (const RectMm& rr : rects)
+    cv::fillConvexPoly(fine, box_polygon(f, rr, win.ix0, win.iy0, kSamples, 1), cv::Scalar(255), cv::LINE_8, kShift);
   cv::Mat ink;
-  cv::resize(fine, ink, {nx, ny}, 0, 0, cv::INTER_AREA);
+  cv::resize(fine, ink, {win.nx, win.ny}, 0, 0, cv::INTER_AREA);
   ink.convertTo(ink, CV_32F, 1.0 / 255);
-  cv::Mat inside(ny, nx, CV_8U, cv::Scalar(0));
-  cv::fillConvexPoly(inside, polygon(box, 1, 0), cv::Scalar(1), cv::LINE_8, kShift);
+  LabelFit out;
+  const double s0 = static_cast<double>(win.inside.size());
   for (double sigma : {0.0, 1.0, 2.0, 3.0, 4.0}) {
     cv::Mat blurred = ink;
     if (sigma > 0) cv::GaussianBlur(ink, blurred, {0, 0}, sigma);
-    double s0 = 0, s1 = 0, s11 = 0, sv = 0, svv = 0, s1v = 0;
-    for (int r = 0; r < ny; ++r)
-      for (int c = 0; c < nx; ++c) {
-        if (!inside.at<unsigned char>(r, c)) continue;
-        const double k = blurred.at<float>(r, c), v = img.at<float>(iy0 + r, ix0 + c);
-        s0 += 1, s1 += k, s11 += k * k, sv += v, svv += v * v, s1v += k * v;
-      }
+    const float* k = blurred.ptr<float>();
+    double s1 = 0, s11 = 0, s1v = 0;
+    for (size_t i = 0; i < win.inside.size(); ++i) {
+      const double ki = k[win.inside[i]];
+      s1 += ki, s11 += ki * ki, s1v += ki * win.value[i];
+    }
     const double det = s0 * s11 - s1 * s1;
     if (s0 < 20 || !(det > 1e-9 * s0 * s0)) continue;
-    const double b = (s0 * s1v - s1 * sv) / det, a = (sv - b * s1) / s0;
-    const double tss = svv - sv * sv / s0, sse = std::max(0.0, svv - a * sv - b * s1v);
+    const double b = (s0 * s1v - s1 * win.sv) / det, a = (win.sv - b * s1) / s0;
+    const double tss = win.svv - win.sv * win.sv / s0, sse = std::max(0.0, win.svv - a * win.sv - b * s1v);
     if (sse < out.sse) {
       out.sse = sse;
       out.slope = b;
@@ -255,10 +284,12 @@ std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D,
                    origin.y + 1.1 * height};
   if (0.2 * height * bar_px < 1.5) return std::nullopt;  // strokes under 1.5 px: not legible
   const double ink_sign = D.light_bars ? 1 : -1;
+  const std::optional<LabelWindow> win = label_window(img, f, box);
+  if (!win) return std::nullopt;
   std::vector<std::pair<LabelFit, int>> fits;
   for (int g = -10; g <= 12; ++g) {
     if (((g - parity_group) % 2 + 2) % 2 != 0) continue;
-    const LabelFit lf = fit_label(img, f, std::to_string(g), origin, height, box);
+    const LabelFit lf = fit_label(*win, f, std::to_string(g), origin, height);
     if (lf.n == 0) return std::nullopt;
     fits.push_back({lf, g});
   }
