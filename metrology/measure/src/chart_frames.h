@@ -30,6 +30,10 @@ struct PatternRef {
   BarOrientation orientation;
   int group, element;
   double lp_per_mm;
+  // The found pattern of a partial element (ChartElement::partial): its
+  // partner was not found, so nothing checks it as the pair does. It is
+  // measured, but it neither scales the frames nor gives the level step.
+  bool lone = false;
   double bar_width_mm() const { return 0.5 / lp_per_mm; }
 };
 

@@ -101,7 +101,8 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
     std::vector<LevelStep>& s = steps[e.orientation == BarOrientation::vertical_bars];
     const SampledProfile& p = profiles[i].front();
     if (s.size() >= 3 || e.px_per_bar < 3) continue;
-    if (D.patterns[refs[i].pattern].predicted || !p.in_view || p.pixels_clipped > p.pixels_used / 50) continue;
+    if (D.patterns[refs[i].pattern].predicted || refs[i].lone || !p.in_view || p.pixels_clipped > p.pixels_used / 50)
+      continue;
     ProfileFitOptions fo;
     fo.fit_contrast = true;
     fo.fit_shape = mo.fit_psf_shape;  // a fixed Gaussian would put a heavy-tailed PSF's low-frequency loss into the level step

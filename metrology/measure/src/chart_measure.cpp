@@ -41,7 +41,7 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
     const ProfileSamplingOptions so = store.fitted_in_view(r, detected, sampling_for(mo, px_per_bar));
     const PatternFrame f = store.recentre(r, detected, so);
     frames.push_back(f);
-    if (px_per_bar < 4) continue;
+    if (px_per_bar < 4 || r.lone) continue;
     const SampledProfile p = store.sample(r, f, so);
     if (!p.in_view) continue;
     ProfileFitOptions fo;
@@ -109,17 +109,19 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
   return jobs;
 }
 
-// Elements of which only one pattern was found: a status, not a guess
-// (ChartElement::partial). They were not measured, so they take no part in
-// the limits and are never resolved.
-void add_partial_elements(const ChartDetection& D, Measurement& M) {
+// The missing pattern of each element of which only one was found
+// (ChartElement::partial): a status, not a guess, so it is never resolved
+// and the limit runs across it (`out_of_view` or `fit_failed`: unmeasured).
+// The found pattern was measured with the rest. Then every element in
+// series order, as the limits read them.
+void add_missing_patterns(const ChartDetection& D, Measurement& M) {
   for (const ChartElement& ce : D.partial) {
-    for (BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
-      ElementResult e = ElementResult::of(ce.group, ce.element, o, usaf_lp_per_mm(ce.group, ce.element), 0.5 * ce.period_px);
-      e.status = ce.partial == ChartElement::Partial::partner_out_of_view ? ElementStatus::out_of_view
-                                                                          : ElementStatus::fit_failed;
-      M.elements.push_back(e);
-    }
+    const BarOrientation o = ce.h >= 0 ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars;
+    ElementResult e = ElementResult::of(ce.group, ce.element, o, usaf_lp_per_mm(ce.group, ce.element), 0.5 * ce.period_px);
+    e.status = ce.partial == ChartElement::Partial::partner_out_of_view ? ElementStatus::out_of_view
+                                                                        : ElementStatus::fit_failed;
+    e.note = ce.partial_reason;
+    M.elements.push_back(e);
   }
   std::stable_sort(M.elements.begin(), M.elements.end(), [](const ElementResult& a, const ElementResult& b) {
     return std::tuple(a.group, a.element) < std::tuple(b.group, b.element);
@@ -150,9 +152,9 @@ void decide_chart(const ChartDetection& D, const MeasureOptions& mo, Measurement
   // some groups and cuts others, and a cut coarse element says nothing
   // about the finer ones (layout mode, which frames the whole target,
   // counts it as unresolved instead).
+  add_missing_patterns(D, M);
   grade_damaged(M, mo.criterion);
   decide_limits(M, mo.criterion, mo.detectability, true);
-  add_partial_elements(D, M);
   M.stage_seconds.push_back({"decide", t.seconds()});
   M.usable = true;
   // A chart in which nothing is resolved cannot be measured: the JSON
@@ -450,6 +452,11 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
     // Both patterns, except for a single-pattern detection (chart_detect.h).
     if (e.h >= 0) refs.push_back({e.h, BarOrientation::horizontal_bars, e.group, e.element, f});
     if (e.v >= 0) refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f});
+  }
+  for (const ChartElement& e : D.partial) {
+    const double f = usaf_lp_per_mm(e.group, e.element);
+    if (e.h >= 0) refs.push_back({e.h, BarOrientation::horizontal_bars, e.group, e.element, f, true});
+    if (e.v >= 0) refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f, true});
   }
   chart::PlacementStore store(lum, D, image.saturation_level);
   ShiftLog shifts;

@@ -90,11 +90,12 @@ struct ChartElement {
   double period_px = 0;     // mean of the two
   int relative_index = 0;   // 0 = the largest element found; +1 per 2^(1/6) finer
   int group = 0, element = 1;  // absolute when anchored; else relative (largest = group 0 element 1)
-  // Only one of the two patterns was found (the other index is -1). Such an
-  // element is reported with a graded status and never measured or
-  // resolved: `out_of_view` when its missing pattern lies outside the image
-  // (the element is partly out of view), `fit_failed` when it lies inside
-  // but was not found there. `partial_reason` says which, in words.
+  // Only one of the two patterns was found (the other index is -1). The
+  // found pattern is measured; the missing one is reported with a graded
+  // status, never measured or resolved: `out_of_view` when it lies outside
+  // the image (the element is partly out of view), `fit_failed` when it
+  // lies inside but was not found there. `partial_reason` says which, in
+  // words.
   enum class Partial { no, partner_out_of_view, partner_not_found } partial = Partial::no;
   std::string partial_reason;
 };
@@ -125,7 +126,7 @@ struct ChartDetection {
   // Elements of which only one pattern was found (ChartElement::partial):
   // lone, well-sampled patterns whose period falls on the series at an
   // index that no element holds. Kept apart from `elements` (which all have
-  // both patterns); reported with a graded status, never measured.
+  // both patterns): the found pattern is measured, the missing one graded.
   std::vector<ChartElement> partial;
   // One three-bar pattern and nothing else of a chart: a microscope frame
   // that holds a single triplet of one element (its partner and the digits
