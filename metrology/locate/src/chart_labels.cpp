@@ -53,7 +53,10 @@ struct Label {
 
 // The boxes that may hold numbers, within the elements' extent (grown by a
 // few bar lengths: the labels sit beside and above the elements), the
-// kMaxBoxes nearest to an element.
+// kMaxBoxes nearest to an element. A box that touches the image's border
+// is no evidence: its number may be cut, and a cut number reads as
+// another (dev_12's group number 3, its foot cut by the frame, reads as a
+// confident 2 upright).
 std::vector<cv::Rect> label_boxes(const cv::Mat& img, const ChartDetection& D, const std::vector<ChartElement>& kept) {
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300, w_min = 1e300, w_max = 0;
   for (const ChartElement& e : kept) {
@@ -73,6 +76,7 @@ std::vector<cv::Rect> label_boxes(const cv::Mat& img, const ChartDetection& D, c
   // once per box, not per comparison.
   std::vector<std::pair<double, cv::Rect>> by_distance;
   for (const cv::Rect& b : boxes) {
+    if (b.x <= 0 || b.y <= 0 || b.x + b.width >= img.cols || b.y + b.height >= img.rows) continue;
     const Vec2 c = box_center(b);
     double nearest = 1e300;
     for (const ChartElement& e : kept) nearest = std::min(nearest, norm(c - element_center(D, e)) / e.period_px);
