@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstring>
 #include <map>
+#include <tuple>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -33,6 +34,10 @@ double noise_sigma(const cv::Mat& img) {
   // at least), with the 3x3 mean taken there alone: the median of 2^16
   // values is known to about 0.5 %, and a full-image blur for a quarter
   // of its values cost 6 % of chart mode.
+  // Beyond every other pixel, each sampled row starts one pixel further
+  // on (cyclically), so that the windows meet every column phase: a fixed
+  // lattice of step 4 or 8 would never straddle a JPEG's 8 x 8 block edges,
+  // where its noise differs.
   const int step = std::max(2, static_cast<int>(std::sqrt(double(img.total()) / 65536)));
   std::vector<float> v;
   v.reserve(static_cast<size_t>(img.rows / step + 1) * (img.cols / step + 1));
@@ -40,7 +45,8 @@ double noise_sigma(const cv::Mat& img) {
     const float* r0 = img.ptr<float>(y - 1);
     const float* r1 = img.ptr<float>(y);
     const float* r2 = img.ptr<float>(y + 1);
-    for (int x = 1; x < img.cols - 1; x += step) {
+    const int stagger = step > 2 ? (y / step) % step : 0;
+    for (int x = 1 + stagger; x < img.cols - 1; x += step) {
       const float sum = r0[x - 1] + r0[x] + r0[x + 1] + r1[x - 1] + r1[x] + r1[x + 1] + r2[x - 1] + r2[x] + r2[x + 1];
       v.push_back(std::abs(r1[x] - sum / 9));
     }
@@ -102,7 +108,11 @@ void collect_bars(const cv::Mat& mask, double min_width_px, std::vector<Bar>& ou
 
 // The same bar found at several window sizes: keep the best-shaped one.
 std::vector<Bar> deduplicate(std::vector<Bar> bars) {
-  std::sort(bars.begin(), bars.end(), [](const Bar& a, const Bar& b) { return a.score < b.score; });
+  // Ties in shape broken by place, so that the order the components were
+  // labelled in never matters.
+  std::sort(bars.begin(), bars.end(), [](const Bar& a, const Bar& b) {
+    return std::tuple(a.score, a.c.y, a.c.x, a.width) < std::tuple(b.score, b.c.y, b.c.x, b.width);
+  });
   std::vector<Bar> kept;
   // The kept bars by x: a duplicate lies within 0.6 of b's width of b, so
   // only that slice is searched (thousands of candidates on a textured frame).

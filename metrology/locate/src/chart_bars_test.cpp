@@ -4,6 +4,7 @@
 // multiples of 8, and the shapes that test the diagonal rule.
 #include <map>
 #include <random>
+#include <tuple>
 
 #include <doctest/doctest.h>
 #include <opencv2/core.hpp>
@@ -26,6 +27,12 @@ bool same_partition(const cv::Mat& mask, int* components = nullptr) {
   const int n = cv::connectedComponents(mask, labels, 8, CV_32S);
   std::map<int, int> root_to_label, label_to_root;
   long long marked = 0;
+  if (root.size() != runs.size()) return false;
+  for (size_t i = 0; i < runs.size(); ++i) {
+    // A root is the index of its component's first run, and its own root.
+    if (root[i] < 0 || root[i] > static_cast<int>(i) || root[root[i]] != root[i]) return false;
+    if (i > 0 && std::tuple(runs[i - 1].y, runs[i - 1].x1) >= std::tuple(runs[i].y, runs[i].x0)) return false;
+  }
   for (size_t i = 0; i < runs.size(); ++i)
     for (int x = runs[i].x0; x <= runs[i].x1; ++x) {
       const int l = labels.at<int>(runs[i].y, x);

@@ -143,9 +143,8 @@ void start_measurement(const LoadedImage& image, Measurement& M) {
   M.transfer = image.transfer;
 }
 
-// The limits from the graded elements (in measurement order), then the
-// elements of which only one pattern was found, and whether anything is
-// resolved at all.
+// The missing patterns of the partial elements, then the limits from all
+// elements in series order, and whether anything is resolved at all.
 void decide_chart(const ChartDetection& D, const MeasureOptions& mo, Measurement& M) {
   Stopwatch t;
   // The limit runs over the elements in view: a chart photograph frames
@@ -279,7 +278,8 @@ void smooth_directions(const std::vector<size_t>& candidates, ChartTrack& T) {
 // What a refit established, for the frames after it: each pattern's frame
 // (the placement it was graded on) and the shift its fit chose there, its
 // artwork and strip; the level steps; the graded elements (measurement
-// order, before the partial elements join them).
+// order, before the partial elements' missing patterns join them). A
+// partial element's lone pattern is tracked but never an anchor.
 ChartTrack make_track(const LoadedImage& image, const ChartDetection& D, const std::vector<PatternRef>& refs,
                       const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
                       const std::vector<size_t>& graded, const ShiftLog& shifts, const chart::PlacementStore& store,
@@ -300,7 +300,7 @@ ChartTrack make_track(const LoadedImage& image, const ChartDetection& D, const s
     p.strip = placed.strip;
     p.sampling = jobs[j].sampling;
     const ElementResult& e = M.elements[j];
-    if (!D.patterns[refs[j].pattern].predicted && e.status == ElementStatus::ok && e.m >= kAnchorMinM &&
+    if (!D.patterns[refs[j].pattern].predicted && !refs[j].lone && e.status == ElementStatus::ok && e.m >= kAnchorMinM &&
         e.px_per_bar >= kAnchorMinPxPerBar)
       candidates.push_back(j);
   }

@@ -109,7 +109,7 @@ struct ChartDetection {
   ChartAnchor anchor = ChartAnchor::none;
   std::string anchor_description;   // what the anchor was, in words
   int largest_index = 0;            // absolute series index 6 g + e - 1 of relative index 0
-  int unpaired_patterns = 0;        // patterns found without a partner (not measured)
+  int unpaired_patterns = 0;        // patterns found without a partner (measured only in `partial`)
   // Elements placed, not found (their patterns are `predicted`):
   // - the element after the finest one found in a column, where three found
   //   elements in a row fix the column's geometric progression (each element

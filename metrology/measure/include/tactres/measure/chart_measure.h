@@ -18,12 +18,14 @@
 //   with free contrast: its bar tops and gaps show the full level step.
 // - Negative charts (light bars) are fitted with the complement pattern,
 //   1 - S(u), so the model is the same as for dark bars.
-// - Elements of which only one pattern was found (ChartDetection::partial)
-//   are reported on both orientations with a status, not a guess:
-//   out_of_view when the missing pattern lies outside the image, fit_failed
-//   when it lies inside but was not found; never measured, never resolved,
-//   left out of the limits. Elements partly out of the image are
-//   out_of_view; m(f) is m(f) whether or not the chart is anchored.
+// - Elements of which only one pattern was found (ChartDetection::partial):
+//   the found pattern is measured (it neither scales the frames, gives the
+//   level step nor anchors a live track: no partner confirms it); the
+//   missing one gets a status, not a guess: out_of_view when it lies
+//   outside the image, fit_failed when it lies inside but was not found;
+//   never resolved, and the limit runs across it. Elements partly out of
+//   the image are out_of_view; m(f) is m(f) whether or not the chart is
+//   anchored.
 // - Grading and the limits are layout mode's own code (element_grading.h).
 
 #include <functional>
