@@ -1,6 +1,7 @@
 // The standard arrangement of a USAF-1951 chart (chart_detect.h, "What the
-// arrangement can and cannot tell"): the steps between the elements found,
-// the group labels above the columns, and the elements a column predicts.
+// arrangement can and cannot tell"): the steps between the elements found
+// and the elements a column predicts. The generated chart's group labels
+// are read in chart_segment_labels.cpp.
 
 #include <algorithm>
 #include <cmath>
@@ -16,35 +17,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "chart_detect_internal.h"
-#include "tactres/targets/glyphs.h"
 #include "tactres/targets/mil_std_chart.h"
 
 namespace tactres::locate_detail {
 
 namespace {
-
-// A found element's own frame: chart x along H -> V, chart y (down)
-// perpendicular to it, sign by handedness; unit = the element's bar width
-// in px. Used to place the seven-segment group labels of the generated
-// chart (read_group_label), whose triplets all stand H left of V.
-struct ElementFrame {
-  Vec2 origin_px;  // centre of the H triplet
-  Vec2 ex;
-  double sign_y = 1;  // -1: mirrored
-  double bar_px = 1;
-  // Bar widths, relative to the origin -> px.
-  Vec2 to_image(Vec2 c) const { return origin_px + bar_px * (c.x * ex + (sign_y * c.y) * perp(ex)); }
-};
-
-ElementFrame frame_of(const ChartDetection& D, const ChartElement& e, double bar_px, bool mirrored) {
-  ElementFrame f;
-  f.origin_px = D.patterns[e.h].center_px;
-  const Vec2 d = D.patterns[e.v].center_px - f.origin_px;
-  f.ex = (1.0 / std::max(norm(d), 1e-9)) * d;
-  f.sign_y = mirrored ? -1 : 1;
-  f.bar_px = bar_px;
-  return f;
-}
 
 // Where index n (modulo 12) stands in a pair of groups (chart_detect.h):
 // 1..5 are the even group's elements 2..6 down the left column, 6..11 the
@@ -157,146 +134,6 @@ void recognise_arrangement(ChartDetection& D, const ScaleField& field) {
   A.mirrored = best.mirrored;
   A.generated_style = best.generated;
   A.down_px = double(best.down) * y_axis;
-}
-
-namespace {
-
-// The image around a label's box (element bar widths, in frame f), with
-// room for the blur: the pixels inside the box and their values, the same
-// for every candidate label.
-struct LabelWindow {
-  int ix0 = 0, iy0 = 0, nx = 0, ny = 0;
-  std::vector<int> inside;    // r * nx + c of the pixels inside the box, in raster order
-  std::vector<double> value;  // the image at those pixels
-  double sv = 0, svv = 0;     // their sum and sum of squares
-};
-
-// Where a box's corners fall in the image, as a polygon in a raster of
-// `scale` samples a pixel from (ix0, iy0), in fixed point with kShift bits.
-constexpr int kShift = 4;
-std::vector<cv::Point> box_polygon(const ElementFrame& f, const RectMm& r, int ix0, int iy0, int scale,
-                                   double offset) {
-  std::vector<cv::Point> pts;
-  for (Vec2 c : {Vec2{r.x0, r.y0}, Vec2{r.x1, r.y0}, Vec2{r.x1, r.y1}, Vec2{r.x0, r.y1}}) {
-    const Vec2 q = f.to_image(c);
-    pts.push_back({static_cast<int>(std::lround(((q.x - ix0) * scale + offset) * (1 << kShift))),
-                   static_cast<int>(std::lround(((q.y - iy0) * scale + offset) * (1 << kShift)))});
-  }
-  return pts;
-}
-
-// nullopt when the box is not fully in view.
-std::optional<LabelWindow> label_window(const cv::Mat& img, const ElementFrame& f, const RectMm& box) {
-  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-  for (Vec2 c : {Vec2{box.x0, box.y0}, Vec2{box.x1, box.y0}, Vec2{box.x0, box.y1}, Vec2{box.x1, box.y1}}) {
-    const Vec2 q = f.to_image(c);
-    x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
-  }
-  if (x0 < 0 || y0 < 0 || x1 > img.cols - 1 || y1 > img.rows - 1) return std::nullopt;
-  constexpr int kPad = 12;
-  LabelWindow w;
-  w.ix0 = static_cast<int>(std::floor(x0)) - kPad, w.iy0 = static_cast<int>(std::floor(y0)) - kPad;
-  w.nx = static_cast<int>(std::ceil(x1)) + kPad - w.ix0 + 1, w.ny = static_cast<int>(std::ceil(y1)) + kPad - w.iy0 + 1;
-  cv::Mat inside(w.ny, w.nx, CV_8U, cv::Scalar(0));
-  cv::fillConvexPoly(inside, box_polygon(f, box, w.ix0, w.iy0, 1, 0), cv::Scalar(1), cv::LINE_8, kShift);
-  for (int r = 0; r < w.ny; ++r)
-    for (int c = 0; c < w.nx; ++c) {
-      if (!inside.at<unsigned char>(r, c)) continue;
-      const double v = img.at<float>(w.iy0 + r, w.ix0 + c);
-      w.inside.push_back(r * w.nx + c);
-      w.value.push_back(v);
-      w.sv += v, w.svv += v * v;
-    }
-  return w;
-}
-
-// How well the label `text` (seven-segment glyphs, as the chart draws
-// them) explains the image in the window's box: the residual sum of
-// squares of value = a + b ink, and b. The ink is the glyphs' pixel
-// coverage blurred by a Gaussian, at the blur (0..4 px) that fits best, so
-// that a soft image is read as well as a sharp one.
-struct LabelFit {
-  double sse = 1e300, slope = 0, r2 = 0;
-  int n = 0;
-};
-
-LabelFit fit_label(const LabelWindow& win, const ElementFrame& f, const std::string& text, Vec2 origin,
-                   double height) {
-  std::vector<RectMm> rects;
-  const double w = 0.6 * height, t = 0.2 * height, gap = 0.3 * height;
-  double x = origin.x;
-  for (char c : text) {
-    append_glyph(c, {x, origin.y}, w, height, t, rects);
-    x += w + gap;
-  }
-  // The glyphs' coverage of each pixel: filled at 3 x 3 samples a pixel
-  // (sample j of a row at image x = ix0 + (j - 1) / 3), then averaged.
-  constexpr int kSamples = 3;
-  cv::Mat fine(kSamples * win.ny, kSamples * win.nx, CV_8U, cv::Scalar(0));
-  for (const RectMm& rr : rects)
-    cv::fillConvexPoly(fine, box_polygon(f, rr, win.ix0, win.iy0, kSamples, 1), cv::Scalar(255), cv::LINE_8, kShift);
-  cv::Mat ink;
-  cv::resize(fine, ink, {win.nx, win.ny}, 0, 0, cv::INTER_AREA);
-  ink.convertTo(ink, CV_32F, 1.0 / 255);
-  LabelFit out;
-  const double s0 = static_cast<double>(win.inside.size());
-  for (double sigma : {0.0, 1.0, 2.0, 3.0, 4.0}) {
-    cv::Mat blurred = ink;
-    if (sigma > 0) cv::GaussianBlur(ink, blurred, {0, 0}, sigma);
-    const float* k = blurred.ptr<float>();
-    double s1 = 0, s11 = 0, s1v = 0;
-    for (size_t i = 0; i < win.inside.size(); ++i) {
-      const double ki = k[win.inside[i]];
-      s1 += ki, s11 += ki * ki, s1v += ki * win.value[i];
-    }
-    const double det = s0 * s11 - s1 * s1;
-    if (s0 < 20 || !(det > 1e-9 * s0 * s0)) continue;
-    const double b = (s0 * s1v - s1 * win.sv) / det, a = (win.sv - b * s1) / s0;
-    const double tss = win.svv - win.sv * win.sv / s0, sse = std::max(0.0, win.svv - a * win.sv - b * s1v);
-    if (sse < out.sse) {
-      out.sse = sse;
-      out.slope = b;
-      out.r2 = tss > 0 ? 1 - sse / tss : 0;
-      out.n = static_cast<int>(s0);
-    }
-  }
-  return out;
-}
-
-}  // namespace
-
-// The group number printed above the column that starts with element `e`
-// (index n modulo 12 = 1: even group's element 2, top of the left column;
-// 6: odd group's element 1, top of the right column): the candidate of the
-// known parity whose digits explain the image clearly best, or nullopt.
-std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D, const ChartElement& e, int n_mod12,
-                                    int parity_group, double bar_px) {
-  const ElementFrame f = frame_of(D, e, bar_px, D.arrangement.mirrored);
-  using namespace mil_std;
-  // In bar widths of element e, from its H-triplet centre: the block's
-  // top-left corner is (-(kHX + 2.5), -2.5); the pair's label stands 4 W
-  // above it, W bar widths of the even group's element 1, 2.5 W tall (the
-  // odd group's label half that).
-  const double W = n_mod12 == 1 ? std::exp2(1.0 / 6) : 2.0;
-  const double height = n_mod12 == 1 ? 2.5 * W : 1.25 * W;
-  const Vec2 origin{-(kHX + 2.5), -2.5 - 4 * W};
-  const RectMm box{origin.x - 0.1 * height, origin.y - 0.1 * height, origin.x + 2.5 * height,
-                   origin.y + 1.1 * height};
-  if (0.2 * height * bar_px < 1.5) return std::nullopt;  // strokes under 1.5 px: not legible
-  const double ink_sign = D.light_bars ? 1 : -1;
-  const std::optional<LabelWindow> win = label_window(img, f, box);
-  if (!win) return std::nullopt;
-  std::vector<std::pair<LabelFit, int>> fits;
-  for (int g = -10; g <= 12; ++g) {
-    if (((g - parity_group) % 2 + 2) % 2 != 0) continue;
-    const LabelFit lf = fit_label(*win, f, std::to_string(g), origin, height);
-    if (lf.n == 0) return std::nullopt;
-    fits.push_back({lf, g});
-  }
-  std::sort(fits.begin(), fits.end(), [](const auto& a, const auto& b) { return a.first.sse < b.first.sse; });
-  const LabelFit& best = fits[0].first;
-  if (best.slope * ink_sign <= 0 || best.r2 < 0.5 || !(best.sse < 0.5 * fits[1].first.sse)) return std::nullopt;
-  return fits[0].second;
 }
 
 // See ChartDetection::predicted_elements.

@@ -3,7 +3,9 @@
 //   chart_bars.cpp         steps 1-3: bars (components by runs), three-bar
 //                          patterns, elements
 //   chart_arrangement.cpp  the standard arrangement: its steps between
-//                          elements, the group labels, the column ends
+//                          elements, the column ends, the nesting
+//   chart_segment_labels.cpp  the generated chart's seven-segment group labels
+//   chart_labels.cpp, chart_group_labels.cpp  printed numbers by OCR
 //   chart_detect.cpp       the rest: indices, anchor, partial elements
 
 #include <algorithm>
