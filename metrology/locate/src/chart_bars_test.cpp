@@ -62,7 +62,7 @@ TEST_CASE("run_components: the 8-connected partition of cv::connectedComponents"
     }
 }
 
-TEST_CASE("run_components: diagonal neighbours join, a one-pixel gap does not; U shapes merge") {
+TEST_CASE("run_components: diagonal neighbours join, a one-pixel gap does not, a U shape is one component") {
   cv::Mat mask(8, 24, CV_8U, cv::Scalar(0));
   // Two runs touching only at a corner: one component.
   mask(cv::Rect(2, 1, 3, 1)).setTo(255);
