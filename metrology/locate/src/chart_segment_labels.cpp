@@ -142,14 +142,11 @@ std::vector<cv::Mat> label_inks(const LabelWindow& win, const ElementFrame& f, c
   ink.convertTo(ink, CV_32F, 1.0 / 255);
   std::vector<cv::Mat> blurred;
   for (const double sigma : kBlursPx) {
-    // A new buffer for each: blurring into a header of `ink` would blur ink
-    // itself, in place (it once did: the blurs compounded, 0, 1, 2.2, 3.7
-    // and 5.5 px).
-    cv::Mat b;
-    if (sigma > 0)
-      cv::GaussianBlur(ink, b, {0, 0}, sigma);
-    else
-      b = ink.clone();
+    // Each blur into a buffer of its own: into a header of `ink` it would
+    // blur ink itself, in place (it once did: the blurs compounded, 0, 1,
+    // 2.2, 3.7 and 5.5 px).
+    cv::Mat b = sigma > 0 ? cv::Mat() : ink;
+    if (sigma > 0) cv::GaussianBlur(ink, b, {0, 0}, sigma);
     blurred.push_back(b);
   }
   return blurred;
@@ -250,7 +247,11 @@ std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D,
   // Offsets up to a quarter of the digits' height (a stroke and more),
   // within the window's room for the blur.
   const int max_offset_px = std::clamp(static_cast<int>(0.25 * height * bar_px), 1, 8);
-  const std::optional<LabelValues> predicted = values_at(img, *win, 0, 0);
+  // The image at each offset tried (the predicted place first), for all
+  // candidates.
+  std::map<std::pair<int, int>, std::optional<LabelValues>> values;
+  const std::optional<LabelValues>& predicted =
+      values.emplace(std::pair{0, 0}, values_at(img, *win, 0, 0)).first->second;
   if (!predicted) return std::nullopt;
   // Every candidate where the label is predicted; then where the best of
   // them fits best (the place is the label's, whichever number it is), and
@@ -267,7 +268,6 @@ std::optional<int> read_group_label(const cv::Mat& img, const ChartDetection& D,
   size_t lead = 0;
   for (size_t c = 1; c < fits.size(); ++c)
     if (fits[c].first.sse < fits[lead].first.sse) lead = c;
-  std::map<std::pair<int, int>, std::optional<LabelValues>> values;
   const auto [dx, dy] = best_offset(img, inks[lead][fits[lead].first.blur], *win, fits[lead].first.sse,
                                     max_offset_px, values);
   if (dx != 0 || dy != 0)

@@ -446,18 +446,16 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   }
 
   Stopwatch t;
+  // The patterns found: both of each element (one for a single-pattern
+  // detection, chart_detect.h), then the one of each partial element.
   std::vector<PatternRef> refs;
-  for (const ChartElement& e : D.elements) {
+  auto add_refs = [&](const ChartElement& e, bool lone) {
     const double f = usaf_lp_per_mm(e.group, e.element);
-    // Both patterns, except for a single-pattern detection (chart_detect.h).
-    if (e.h >= 0) refs.push_back({e.h, BarOrientation::horizontal_bars, e.group, e.element, f});
-    if (e.v >= 0) refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f});
-  }
-  for (const ChartElement& e : D.partial) {
-    const double f = usaf_lp_per_mm(e.group, e.element);
-    if (e.h >= 0) refs.push_back({e.h, BarOrientation::horizontal_bars, e.group, e.element, f, true});
-    if (e.v >= 0) refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f, true});
-  }
+    if (e.h >= 0) refs.push_back({e.h, BarOrientation::horizontal_bars, e.group, e.element, f, lone});
+    if (e.v >= 0) refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f, lone});
+  };
+  for (const ChartElement& e : D.elements) add_refs(e, false);
+  for (const ChartElement& e : D.partial) add_refs(e, true);
   chart::PlacementStore store(lum, D, image.saturation_level);
   ShiftLog shifts;
   const std::vector<PatternFrame> frames = pattern_frames(D, refs, store, mo);
