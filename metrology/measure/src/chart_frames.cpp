@@ -161,9 +161,6 @@ ProfileSamplingOptions PlacementStore::fitted_in_view(const PatternRef& r, const
 }
 
 PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const ProfileSamplingOptions& so) const {
-  // A predicted pattern is placed by its column or the nesting, more
-  // precisely than its faint bars could place it.
-  if (D_.patterns[r.pattern].predicted) return f;
   const SampledProfile p = sample(r, f, so);
   if (!p.in_view) return f;
   const double shift_mm = refine_shift(p.data, r.bar_width_mm(), D_.light_bars);

@@ -39,7 +39,7 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
     const double px_per_bar = 0.5 * D.patterns[r.pattern].period_px;
     const PatternFrame detected = chart::frame_of(D.patterns[r.pattern], r.orientation, r.lp_per_mm);
     const ProfileSamplingOptions so = store.fitted_in_view(r, detected, sampling_for(mo, px_per_bar));
-    const PatternFrame f = store.recentre(r, detected, so);
+    const PatternFrame f = D.patterns[r.pattern].predicted ? detected : store.recentre(r, detected, so);
     frames.push_back(f);
     if (px_per_bar < 4 || r.lone) continue;
     const SampledProfile p = store.sample(r, f, so);
@@ -61,11 +61,16 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
 }
 
 // One job per pattern: its final frame (recentred at the smoothed scale)
-// and, where the correlation centring moved the frame by more than a tenth
-// of a bar, the detected centre as a second placement. On faint, barely
-// sampled patterns (~3 px per bar, m ~ 0.1) the correlation can lock half
-// a bar off while the binarised bars' centroid was right, and a misplaced
-// pattern reads as blur: the pipeline keeps whichever the model fits better.
+// and a second placement where it lies more than a tenth of a bar away,
+// the pipeline keeping whichever the model fits better (a misplaced
+// pattern reads as blur):
+// - a found pattern: its detected centre. On faint, barely sampled
+//   patterns (~3 px per bar, m ~ 0.1) the correlation can lock half a bar
+//   off while the binarised bars' centroid was right.
+// - a predicted pattern: the frame centred on its data. Its column or the
+//   nesting places it first, but a lens's distortion moves the nested
+//   copy: dev_03's group 7 lies a px (0.4 bar) off its nested prediction,
+//   where bars of m 0.7 read m ~ 0.
 //
 // `shifts` records, per profile the shift search ran on, the shift it chose
 // (mm along u): a live sequence's track keeps where each pattern's fit
@@ -84,16 +89,17 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
     e = ElementResult::of(r.group, r.element, r.orientation, r.lp_per_mm, r.bar_width_mm() * frames[i].px_per_mm);
     job.sampling = store.fitted_in_view(r, frames[i], sampling_for(mo, e.px_per_bar));
     job.complement_ideal = D.light_bars;
-    const PatternFrame f = store.recentre(r, frames[i], job.sampling);
+    const PatternFrame f = pattern.predicted ? frames[i] : store.recentre(r, frames[i], job.sampling);
     // Recentring can move a strip that only just fitted out of the image
     // (a single element filling the frame): fit its margin again.
     job.sampling = store.fitted_in_view(r, f, job.sampling);
     e.px_per_bar = r.bar_width_mm() * f.px_per_mm;
     job.placements.push_back(store.place(r, f, job.sampling));
-    PatternFrame detected = f;
-    detected.center_px = pattern.center_px;
-    if (!pattern.predicted && norm(detected.center_px - f.center_px) > 0.1 * e.px_per_bar)
-      job.placements.push_back(store.place(r, detected, job.sampling));
+    PatternFrame second = f;
+    if (pattern.predicted) second = store.recentre(r, f, job.sampling);
+    else second.center_px = pattern.center_px;
+    if (norm(second.center_px - f.center_px) > 0.1 * e.px_per_bar)
+      job.placements.push_back(store.place(r, second, job.sampling));
     // A predicted pattern is placed by its column or the nesting, more
     // precisely than its faint bars could place it; a found one is centred
     // on its data.

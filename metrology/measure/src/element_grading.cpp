@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "tactres/profiles/gap_dips.h"
 #include "tactres/util/stopwatch.h"
 
 namespace tactres {
@@ -36,6 +37,21 @@ std::string clipped_note(const SampledProfile& sp, const std::string& rest = "")
   return fmt::format("{:.0f} % of its pixels are clipped (black or saturated){}",
                      100.0 * sp.pixels_clipped / std::max(1, sp.pixels_used), rest);
 }
+
+// Marks an ok element whose triplet shows one gap flat (profiles/gap_dips.h)
+// on the profile it was graded on. Printed bars only: a relief's shading
+// signature is a slope, with no dips to read.
+void note_flat_gap(ElementResult& r, const ProfileData& d, double contrast) {
+  const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, contrast);
+  if (!g.one_gap_flat()) return;
+  r.gap_flat = true;
+  const int k = g.flat_gap();
+  const std::string flat =
+      fmt::format("its {} gap shows no dip ({:.1f} sigma; the other dips {:.1f} sigma): two bars are seen, not "
+                  "three, so it is not resolved",
+                  k == 0 ? "first" : "second", g.dip[k] / g.sigma[k], g.dip[1 - k] / g.sigma[1 - k]);
+  r.note = r.note.empty() ? flat : flat + "; " + r.note;
+}
 }  // namespace
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
@@ -65,7 +81,8 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
   }
   const Stopwatch fit_time;
   std::tie(fo.start_nu0_per_mm, fo.start_beta) = warm_lsf;
-  const ProfileFit fit = prepare ? fit_profile(prepare(sp.data, fo), fo) : fit_profile(sp.data, fo);
+  const ProfileData data = prepare ? prepare(sp.data, fo) : sp.data;
+  const ProfileFit fit = fit_profile(data, fo);
   if (fit.usable && !clipped) warm_lsf = {fit.nu0_per_mm, fit.beta};
   const double seconds = fit_time.seconds();
   if (!fit.usable || (clipped && fit.transfer_sigma(r.lp_per_mm) > options.max_m_sigma)) {
@@ -148,6 +165,7 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
                            "m_sigma is widened by sqrt(chi^2){}",
                            fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
   }
+  if (r.status == ElementStatus::ok && fo.signature == Signature::albedo) note_flat_gap(r, data, fo.contrast);
   if (clipped && r.status == ElementStatus::ok)
     r.note = clipped_note(sp, ": fitted with those bins as bounds" + (r.note.empty() ? "" : "; " + r.note));
   return seconds;
@@ -164,7 +182,7 @@ namespace {
 
 // Fitted and resolved by the criterion: what ElementResult::resolved says.
 bool ok_and_resolved(const ElementResult& r, const Criterion& criterion) {
-  return r.status == ElementStatus::ok &&
+  return r.status == ElementStatus::ok && !r.gap_flat &&
          is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
 }
 
@@ -225,7 +243,7 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
       // optical limit. Its CNR, the bars' own signal, still counts.
       const MPoint point{r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok, unmeasured};
       const bool unscaled = ok && r.m_scale_undetermined && !is_resolved(point, criterion);
-      m.push_back({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok && !unscaled, unmeasured || unscaled});
+      m.push_back({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok && !unscaled && !r.gap_flat, unmeasured || unscaled});
       cnr.push_back({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, ok, unmeasured, r.noise_shot_fraction});
     }
     const LimitBreakdown parts = decide_breakdown(std::move(m), std::move(cnr), criterion, detectability);

@@ -138,3 +138,22 @@ TEST_CASE("clipped: a clipped profile the model misses is clipped, and so is a s
   REQUIRE(most.pixels_clipped > most.pixels_used / 2);
   CHECK(graded(most, 4.0).status == ElementStatus::clipped);
 }
+
+TEST_CASE("a flat gap: an ok element whose triplet shows two bars is never resolved, and ends the chain") {
+  Criterion c;
+  Measurement M = row_of({0.8, 0.6, 0.5, 0.3, 0.2, 0.05});
+  M.elements[3].gap_flat = true;  // m 0.3, but one gap does not dip
+  grade_damaged(M, c);
+  // Its finer neighbours are below m 0.3: no local defect, the optics.
+  CHECK(M.elements[3].status == ElementStatus::ok);
+  decide_limits(M, c, {}, true);
+  CHECK_FALSE(M.elements[3].resolved);
+  CHECK(M.elements[4].resolved);  // resolved on its own, beyond the chain
+  const Limit& optical = M.vertical_parts.optical;
+  CHECK(optical.element == 3);
+  CHECK(optical.bridged.empty());
+  // Without the flag the same m reach E5.
+  Measurement plain = row_of({0.8, 0.6, 0.5, 0.3, 0.2, 0.05});
+  decide_limits(plain, c, {}, true);
+  CHECK(plain.vertical_parts.optical.element == 5);
+}

@@ -124,14 +124,14 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
     fo.contrast_slope_per_mm = slope_per_mm;
     fo.fit_shape = context.options.fit_psf_shape;
     const std::pair<double, double> warm_before = warm;
+    const ElementResult ungraded = r;  // each placement is graded from scratch
     const SampledProfile* graded_on = &profiles[j].front();
     fit_seconds += grade_element(r, profiles[j].front(), fo, step.contrast_sigma, context.options, warm, job.prepare,
                                  context.model_mismatch);
     // Another placement replaces the first only when the model fits it better.
     for (size_t k = 1; k < profiles[j].size(); ++k) {
       if (!profiles[j][k].in_view) continue;
-      ElementResult alt = r;
-      alt.m = alt.m_sigma = alt.beta = alt.chi2_reduced = 0;
+      ElementResult alt = ungraded;
       std::pair<double, double> alt_warm = warm_before;
       fit_seconds += grade_element(alt, profiles[j][k], fo, step.contrast_sigma, context.options, alt_warm,
                                    job.prepare, context.model_mismatch);

@@ -92,6 +92,10 @@ struct ElementResult {
   // optical limit unless resolved anyway; its CNR counts). The measurement
   // does not know whether the bars shade there (element_grading.h).
   bool m_scale_undetermined = false;
+  // ok, but one gap of its triplet shows no dip while the other clearly
+  // does (profiles/gap_dips.h): two bars are seen, not three, so it is
+  // never resolved, whatever m reads.
+  bool gap_flat = false;
   bool resolved = false;
   bool detectable = false;
   std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say

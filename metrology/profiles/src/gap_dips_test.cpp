@@ -1,0 +1,114 @@
+#include "tactres/profiles/gap_dips.h"
+
+#include <cmath>
+
+#include <doctest/doctest.h>
+
+#include "tactres/profiles/profile_sampler.h"
+
+namespace tactres {
+
+namespace {
+
+constexpr double kBarMm = 0.1;
+
+// A triplet of bars 0.1 mm wide at u = -0.2, 0, 0.2 on 0.01 mm bins, each
+// bin 4 samples of standard error `se`: bars at `bar_level`, gaps at
+// gap_level[k], the ground beyond at `ground`. Dark bars unless `light`
+// (then the ideal is complemented, as the sampler does for a negative
+// chart).
+ProfileData triplet(double bar_level, const double gap_level[2], double ground, double se, bool light) {
+  ProfileData d;
+  d.bin_mm = 0.01;
+  d.bin_count = 80;
+  d.u0_mm = -0.4;
+  d.fit_begin = 0;
+  d.fit_end = d.bin_count;
+  for (int i = 0; i < 3; ++i) d.ideal.push_back({(i - 1) * 0.2 - 0.05, (i - 1) * 0.2 + 0.05, 1.0});
+  if (light) complement_ideal(d);
+  for (int b = 0; b < d.bin_count; ++b) {
+    const double u = d.bin_center_mm(b);
+    double v = ground;
+    for (int i = 0; i < 3; ++i)
+      if (std::abs(u - (i - 1) * 0.2) < 0.05) v = bar_level;
+    if (u > -0.15 && u < -0.05) v = gap_level[0];
+    if (u > 0.05 && u < 0.15) v = gap_level[1];
+    d.value.push_back(v);
+    d.u_mean_mm.push_back(u);
+    d.sigma.push_back(se);
+    d.count.push_back(4);
+  }
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("gap dips: a clean triplet dips at both gaps, either polarity") {
+  const double gaps[2] = {0.8, 0.8};
+  const GapDips dark = gap_dips(triplet(0.2, gaps, 0.8, 0.01, false), kBarMm, -0.9);
+  REQUIRE(dark.valid);
+  CHECK(dark.dip[0] == doctest::Approx(0.6));
+  CHECK(dark.dip[1] == doctest::Approx(0.6));
+  // Two windows of 4-6 bins of standard error 0.01 each.
+  CHECK(dark.sigma[0] > 0.01 * std::sqrt(2.0 / 6));
+  CHECK(dark.sigma[0] < 0.01 * std::sqrt(2.0 / 4) + 1e-12);
+  CHECK_FALSE(dark.one_gap_flat());
+  const double light_gaps[2] = {0.2, 0.2};
+  const GapDips light = gap_dips(triplet(0.8, light_gaps, 0.2, 0.01, true), kBarMm, -0.9);
+  REQUIRE(light.valid);
+  CHECK(light.dip[0] == doctest::Approx(0.6));
+  CHECK(light.dip[1] == doctest::Approx(0.6));
+}
+
+TEST_CASE("gap dips: a gap filled to the bars' level is flat while the other dips") {
+  const double gaps[2] = {0.8, 0.21};
+  const GapDips g = gap_dips(triplet(0.2, gaps, 0.8, 0.01, false), kBarMm, -0.9);
+  REQUIRE(g.valid);
+  CHECK(g.dip[1] == doctest::Approx(0.01));
+  CHECK(g.one_gap_flat());
+  CHECK(g.flat_gap() == 1);
+  // The wrong polarity turns every dip negative: the data then show no bars
+  // at all, which is the model's business (both dips fail the 5 sigma test).
+  CHECK_FALSE(gap_dips(triplet(0.2, gaps, 0.8, 0.01, false), kBarMm, 0.9).one_gap_flat());
+}
+
+TEST_CASE("gap dips: the windows follow a triplet placed a third of a bar off") {
+  const double gaps[2] = {0.8, 0.8};
+  ProfileData d = triplet(0.2, gaps, 0.8, 0.01, false);
+  for (IdealBox& b : d.ideal) b.u0_mm += 0.033, b.u1_mm += 0.033;
+  const GapDips g = gap_dips(d, kBarMm, -0.9);
+  REQUIRE(g.valid);
+  CHECK(g.dip[0] == doctest::Approx(0.6));
+  CHECK(g.dip[1] == doctest::Approx(0.6));
+  CHECK_FALSE(g.one_gap_flat());
+}
+
+TEST_CASE("gap dips: two shallow gaps are left to the model") {
+  const double gaps[2] = {0.215, 0.215};
+  const GapDips g = gap_dips(triplet(0.2, gaps, 0.8, 0.01, false), kBarMm, -0.9);
+  REQUIRE(g.valid);
+  CHECK_FALSE(g.one_gap_flat());
+}
+
+TEST_CASE("gap dips: an empty or clipped window gives no verdict") {
+  const double gaps[2] = {0.8, 0.21};
+  ProfileData d = triplet(0.2, gaps, 0.8, 0.01, false);
+  ProfileData empty = d;
+  for (int b = 0; b < empty.bin_count; ++b)
+    if (std::abs(empty.u_mean_mm[b] - 0.1) < 0.08) empty.count[b] = 0;
+  CHECK_FALSE(gap_dips(empty, kBarMm, -0.9).valid);
+  // A gap clipped at black could have been darker still: no verdict. One
+  // clipped at saturation was at least that bright, so its dip at least
+  // what it reads: it counts.
+  ProfileData clipped = d;
+  clipped.bound.assign(clipped.bin_count, 0);
+  for (int b = 0; b < clipped.bin_count; ++b)
+    if (std::abs(clipped.u_mean_mm[b] - 0.1) < 0.08) clipped.bound[b] = -1;
+  CHECK_FALSE(gap_dips(clipped, kBarMm, -0.9).valid);
+  for (signed char& b : clipped.bound) b = b == -1 ? 1 : 0;
+  CHECK(gap_dips(clipped, kBarMm, -0.9).one_gap_flat());
+  // Without three bars of the given width the triplet is not found.
+  CHECK_FALSE(gap_dips(d, 2 * kBarMm, -0.9).valid);
+}
+
+}  // namespace tactres
