@@ -285,8 +285,8 @@ bool anchor_by_options(ChartDetection& D, double largest_period_px, const ChartD
 
 // The absolute index of relative index 0 (D.largest_index), from the
 // options or else the arrangement, and what fixed it.
-void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const ScaleField& field,
-            const ChartDetectOptions& options, const cv::Mat& img) {
+void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const std::vector<ChartElement>& partial,
+            const ScaleField& field, const ChartDetectOptions& options, const cv::Mat& img) {
   if (!anchor_by_options(D, kept.front().period_px, options)) {
     D.largest_index = 0;
     D.anchor = ChartAnchor::none;
@@ -300,7 +300,7 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const Scal
     std::string note;
     const std::optional<int> phase =
         D.arrangement.recognised ? std::optional<int>(D.arrangement.phase) : std::nullopt;
-    if (anchor_by_printed_numbers(D, kept, img, phase, note)) {
+    if (anchor_by_printed_numbers(D, kept, partial, img, phase, note)) {
       D.anchor = ChartAnchor::printed_numbers;
       D.anchor_description = "printed numbers: " + note;
     } else {
@@ -314,8 +314,9 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const Scal
 // orientation on the chart follows from the nearest complete element
 // (chart x runs from an H triplet to its V partner); its partner would
 // stand `separation_periods` away along chart x.
-void add_partial_elements(ChartDetection& D, const std::vector<int>& lone, const ScaleField& field,
-                          double separation_periods, const cv::Mat& img) {
+std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::vector<int>& lone,
+                                           const ScaleField& field, double separation_periods, const cv::Mat& img) {
+  std::vector<ChartElement> partial;
   std::vector<int> taken;
   for (const ChartElement& e : D.elements) taken.push_back(e.relative_index);
   const double step = std::log(2.0) / 6;
@@ -355,9 +356,10 @@ void add_partial_elements(ChartDetection& D, const std::vector<int>& lone, const
                                    outside ? "lies outside the image (the element is partly out of view)"
                                            : "is in the image but was not found there");
     taken.push_back(index);
-    D.partial.push_back(e);
+    partial.push_back(e);
   }
-  sort_by_index(D.partial);
+  sort_by_index(partial);
+  return partial;
 }
 
 // ChartDetection::single_pattern: the one large pattern of either polarity,
@@ -457,7 +459,11 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   const std::optional<Vec2> nesting_centre_px = fit_nesting(D, kept);
   field.level0 = median_series_level(D, field, kept);
 
-  anchor(D, kept, field, options, img);
+  // Partial elements are not anchored by themselves, but a group number may
+  // stand by one (dev_03's "4" above its G4E1, whose H triplet the frame
+  // cuts): the printed numbers are read beside them too.
+  D.elements = kept;
+  anchor(D, kept, partial_elements(D, pairing.lone, field, separation_periods, img), field, options, img);
   for (ChartElement& e : kept) {
     const int n = D.largest_index + e.relative_index;
     e.group = floor_div6(n);
@@ -469,7 +475,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   // field's distorted corner to its centre (dev_04/05's G6E6).
   predict_column_ends(D);
   if (nesting_centre_px) predict_nested_pairs(D, *nesting_centre_px, img.cols, img.rows);
-  add_partial_elements(D, pairing.lone, field, separation_periods, img);
+  D.partial = partial_elements(D, pairing.lone, field, separation_periods, img);
   D.found = true;
   return D;
 }

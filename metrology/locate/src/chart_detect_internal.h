@@ -159,8 +159,10 @@ void predict_nested_pairs(ChartDetection& D, Vec2 centre_px, int cols, int rows)
 // The anchor from the printed group and element numbers, read by OCR
 // (chart_labels.cpp): sets D.largest_index and returns true when the
 // numbers read fix it; `note` says what was read, or why not. `phase`:
-// D.largest_index modulo 12 when the arrangement fixed it.
-bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
+// D.largest_index modulo 12 when the arrangement fixed it. Numbers are
+// also read beside the `partial` elements (ChartElement::partial).
+bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept,
+                               const std::vector<ChartElement>& partial, const cv::Mat& img,
                                std::optional<int> phase, std::string& note);
 
 // Printed numbers shorter than this (px) are not evidence: Tesseract reads
@@ -180,7 +182,8 @@ cv::Mat upright_patch(const cv::Mat& img, const ChartDetection::Arrangement& A, 
 // when they agree on one, else nullopt; `note` says what was read
 // (chart_group_labels.cpp).
 std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDetection& D,
-                                            const std::vector<ChartElement>& kept, const cv::Mat& img, int phase,
+                                            const std::vector<ChartElement>& kept,
+                                            const std::vector<ChartElement>& partial, const cv::Mat& img, int phase,
                                             std::string& note);
 
 }  // namespace tactres::locate_detail

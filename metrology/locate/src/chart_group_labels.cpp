@@ -4,8 +4,11 @@
 // typeface. The phase fixes the largest element's index modulo 12, so each
 // number read chooses among k = phase + 12 j.
 
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
+#include <vector>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
@@ -36,6 +39,13 @@ namespace {
 // and 5.7 W above, 1.8 to 3.7 W tall. The band clears the element's own
 // top (2.2 W above its middle at most).
 constexpr double kAboveFromW = 2.6, kAboveToW = 8.0, kAboveMinToW = 6.0, kHalfWidthW = 3.5;
+// Real charts print an even group's number a second time, above its
+// element 1's H triplet towards the right end (dev_03: the "4" and "6"
+// centred 3.4-3.6 W right of the triplet's middle and 4.0-4.2 W above it,
+// 2.6-3.0 W tall; there the frame cuts the column tops). In units of that
+// element's own bar width; the band narrows, down to the digit's own width,
+// where the frame is near.
+constexpr double kE1RightW = 3.5, kE1FromW = 2.6, kE1ToW = 6.0, kE1HalfWidthW = 2.5, kE1MinHalfWidthW = 1.3;
 
 // Whether a width x height patch centred at c, turned by `down`, lies in
 // the image.
@@ -49,38 +59,94 @@ bool inside(const cv::Mat& img, Vec2 c, int width, int height, Vec2 down) {
   return true;
 }
 
+// A place where a group number may stand: an upright patch, and the
+// relative index of an element of that group.
+struct Site {
+  Vec2 center_px;
+  int width = 0, height = 0;
+  int relative_index = 0;
+};
+
+// Above the element heading its column. The band must lie in the image (a
+// replicated border reads as anything): near the frame's edge its far side
+// is pulled in, down to kAboveMinToW.
+std::optional<Site> column_site(const ChartDetection& D, const ChartElement& e, int n12, const cv::Mat& img) {
+  const Vec2 down = D.arrangement.down_px;
+  const double W = 0.5 * e.period_px * std::exp2(n12 / 6.0);
+  const Vec2 mid = 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
+  const int width = static_cast<int>(std::lround(2 * kHalfWidthW * W));
+  for (double to_w = kAboveToW; to_w >= kAboveMinToW; to_w -= 0.5) {
+    const Vec2 c = mid - (0.5 * (kAboveFromW + to_w) * W) * down;
+    const int height = static_cast<int>(std::lround((to_w - kAboveFromW) * W));
+    if (inside(img, c, width, height, down)) return Site{c, width, height, e.relative_index};
+  }
+  return std::nullopt;
+}
+
+// Above an even group's element 1's H triplet, found or (for a partial
+// element whose V triplet alone was found) `separation_periods` along the
+// chart's x from its V triplet: element 1 has its V triplet on the left.
+std::optional<Site> element_one_site(const ChartDetection& D, const ChartElement& e, double separation_periods,
+                                     const cv::Mat& img) {
+  const ChartDetection::Arrangement& A = D.arrangement;
+  const Vec2 x_dir = (A.mirrored ? -1.0 : 1.0) * Vec2{A.down_px.y, -A.down_px.x};
+  if (e.h < 0 && e.v < 0) return std::nullopt;
+  const Vec2 h_center = e.h >= 0 ? D.patterns[e.h].center_px
+                                 : D.patterns[e.v].center_px + (separation_periods * e.period_px) * x_dir;
+  const double w = 0.5 * e.period_px;
+  const Vec2 c = h_center + (kE1RightW * w) * x_dir - (0.5 * (kE1FromW + kE1ToW) * w) * A.down_px;
+  const int height = static_cast<int>(std::lround((kE1ToW - kE1FromW) * w));
+  // Narrower, then also moved along x by up to a bar width: the digit
+  // (about 2.4 w wide) stays in the band.
+  for (int tenths = 0; kE1HalfWidthW - 0.1 * tenths >= kE1MinHalfWidthW - 1e-9; ++tenths) {
+    const int width = static_cast<int>(std::lround(2 * (kE1HalfWidthW - 0.1 * tenths) * w));
+    for (double shift_w : {0.0, -0.25, 0.25, -0.5, 0.5, -0.75, 0.75, -1.0, 1.0}) {
+      const Vec2 moved = c + (shift_w * w) * x_dir;
+      if (inside(img, moved, width, height, A.down_px)) return Site{moved, width, height, e.relative_index};
+    }
+  }
+  return std::nullopt;
+}
+
+// The H-to-V centre distance of the complete elements, in their periods
+// (the median).
+double separation_periods(const ChartDetection& D, const std::vector<ChartElement>& kept) {
+  std::vector<double> s;
+  for (const ChartElement& e : kept)
+    s.push_back(norm(D.patterns[e.v].center_px - D.patterns[e.h].center_px) / e.period_px);
+  if (s.empty()) return 3.5;
+  std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(s.size() / 2), s.end());
+  return s[s.size() / 2];
+}
+
 }  // namespace
 
 std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDetection& D,
-                                            const std::vector<ChartElement>& kept, const cv::Mat& img, int phase,
+                                            const std::vector<ChartElement>& kept,
+                                            const std::vector<ChartElement>& partial, const cv::Mat& img, int phase,
                                             std::string& note) {
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
-  const Vec2 down = D.arrangement.down_px;
+  std::vector<Site> sites;
+  const double separation = separation_periods(D, kept);
+  for (const std::vector<ChartElement>* list : {&kept, &partial})
+    for (const ChartElement& e : *list) {
+      const int n12 = mod12(e.relative_index + phase);
+      const bool complete = e.h >= 0 && e.v >= 0;
+      std::optional<Site> site;
+      if (complete && (n12 == 1 || n12 == 6)) site = column_site(D, e, n12, img);
+      if (n12 == 0) site = element_one_site(D, e, separation, img);
+      if (site && 0.4 * site->height >= kMinLabelCharPx) sites.push_back(*site);
+    }
   std::map<int, int> votes;  // j -> readings that fit k = phase + 12 j
   int read = 0, unfit = 0;
-  for (const ChartElement& e : kept) {
-    const int n12 = mod12(e.relative_index + phase);
-    if (n12 != 1 && n12 != 6) continue;
-    const double W = 0.5 * e.period_px * std::exp2(n12 / 6.0);
-    const Vec2 mid = 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
-    // The band must lie in the image (a replicated border reads as
-    // anything): near the frame's edge its far side is pulled in, down to
-    // kAboveMinToW.
-    std::optional<Vec2> center;
-    int width = static_cast<int>(std::lround(2 * kHalfWidthW * W)), height = 0;
-    for (double to_w = kAboveToW; to_w >= kAboveMinToW && !center; to_w -= 0.5) {
-      const Vec2 c = mid - (0.5 * (kAboveFromW + to_w) * W) * down;
-      height = static_cast<int>(std::lround((to_w - kAboveFromW) * W));
-      if (inside(img, c, width, height, down)) center = c;
-    }
-    if (!center || 0.4 * height < kMinLabelCharPx) continue;
+  for (const Site& site : sites) {
     const std::optional<NumberReading> r =
-        reader.read_number(upright_patch(img, D.arrangement, *center, width, height), ink);
+        reader.read_number(upright_patch(img, D.arrangement, site.center_px, site.width, site.height), ink);
     if (!r || r->box_px.height < kMinLabelCharPx) continue;
     ++read;
     bool fits = false;
     for (int j = -4; j <= 4; ++j)
-      if (floor_div6(e.relative_index + phase + 12 * j) == r->value) ++votes[j], fits = true;
+      if (floor_div6(site.relative_index + phase + 12 * j) == r->value) ++votes[j], fits = true;
     unfit += !fits;
   }
   int best_j = 0, best = 0, others = unfit;
@@ -88,13 +154,15 @@ std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDete
     if (n > best) others += best, best = n, best_j = j;
     else others += n;
   if (best == 0 || (others > 0 && (best < 2 || best < 2 * others))) {
-    note = read == 0 ? "no group number read above the columns"
-                     : fmt::format("{} group number(s) read above the columns, but they do not agree on the group", read);
+    note = read == 0 ? "no group number read above the columns or element 1"
+                     : fmt::format("{} group number(s) read above the columns or element 1, but they do not agree on "
+                                   "the group",
+                                   read);
     return std::nullopt;
   }
   const int k = phase + 12 * best_j, g = floor_div6(k);
-  note = fmt::format("{} of {} group number(s) read above the columns fit the largest element found being group {} "
-                     "element {}",
+  note = fmt::format("{} of {} group number(s) read above the columns or element 1 fit the largest element found "
+                     "being group {} element {}",
                      best, read, g, k - 6 * g + 1);
   return k;
 }

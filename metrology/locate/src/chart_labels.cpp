@@ -34,7 +34,9 @@ constexpr size_t kMaxBoxes = 40;
 
 Vec2 box_center(const cv::Rect& b) { return {b.x + 0.5 * b.width, b.y + 0.5 * b.height}; }
 
+// Between its two patterns; a partial element's is its found pattern's.
 Vec2 element_center(const ChartDetection& D, const ChartElement& e) {
+  if (e.h < 0 || e.v < 0) return D.patterns[std::max(e.h, e.v)].center_px;
   return 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
 }
 
@@ -222,9 +224,11 @@ std::optional<Choice> choose_with_phase(const std::vector<std::pair<Choice, std:
   return best;
 }
 
-// The anchor from the numbers read in `img` at the detection's own scale.
-bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
-                     std::optional<int> phase, std::string& note) {
+// The anchor from the numbers read in `img` at the detection's own scale;
+// the numbers beside the elements are read beside the partial ones too.
+bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
+                     const std::vector<ChartElement>& partial, const cv::Mat& img, std::optional<int> phase,
+                     std::string& note) {
   std::string error;
   LabelReader* reader = thread_reader(error);
   if (!reader) {
@@ -234,14 +238,16 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept, c
   if (phase) {
     // First where the arrangement puts the group numbers.
     std::string column_note;
-    if (const std::optional<int> k = index_from_column_labels(*reader, D, kept, img, *phase, column_note)) {
+    if (const std::optional<int> k = index_from_column_labels(*reader, D, kept, partial, img, *phase, column_note)) {
       D.largest_index = *k;
       note = column_note;
       return true;
     }
     note = column_note + "; ";
   }
-  const std::vector<cv::Rect> boxes = label_boxes(img, D, kept);
+  std::vector<ChartElement> beside = kept;
+  beside.insert(beside.end(), partial.begin(), partial.end());
+  const std::vector<cv::Rect> boxes = label_boxes(img, D, beside);
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
   const auto read = phase ? read_boxes_upright(*reader, img, boxes, ink, D.arrangement) : read_boxes(*reader, img, boxes, ink);
   // The orientation and k together: in the wrong orientation the numbers
@@ -253,7 +259,7 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept, c
     Choice c;
     c.o = o;
     c.labels_read = static_cast<int>(labels.size());
-    by_o.push_back({c, support(D, kept, labels, phase)});
+    by_o.push_back({c, support(D, beside, labels, phase)});
   }
   int best_n = 0, second = 0;
   const std::optional<Choice> best =
@@ -278,8 +284,10 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept, c
   return true;
 }
 
-// The detection as seen `levels` octaves down a Gaussian pyramid.
-ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, int levels) {
+// The detection as seen `levels` octaves down a Gaussian pyramid (`kept`
+// and `partial` scaled with it).
+ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, std::vector<ChartElement>& partial,
+                      int levels) {
   const double f = std::exp2(-levels);
   auto to_small = [&](Vec2 p) { return from_octave(p, -levels); };
   ChartDetection S = D;
@@ -291,6 +299,7 @@ ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, 
     for (Vec2& b : p.bar_centers_px) b = to_small(b);
   }
   for (ChartElement& e : kept) e.period_px *= f;
+  for (ChartElement& e : partial) e.period_px *= f;
   return S;
 }
 
@@ -303,18 +312,19 @@ ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, 
 // reading label boxes costs in proportion to their area (3.9 s of dev_07's
 // 5.5 s detection, full size), and the reader scales every patch to a
 // 36 px character anyway.
-bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept, const cv::Mat& img,
+bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept,
+                               const std::vector<ChartElement>& partial, const cv::Mat& img,
                                std::optional<int> phase, std::string& note) {
   double bar_px = 1e300;
   for (const ChartElement& e : kept) bar_px = std::min(bar_px, 0.5 * e.period_px);
   int levels = 0;
   while (bar_px * std::exp2(-(levels + 1)) >= 12 && std::min(img.cols, img.rows) >> (levels + 1) >= 64) ++levels;
-  if (levels == 0) return anchor_at_scale(D, kept, img, phase, note);
+  if (levels == 0) return anchor_at_scale(D, kept, partial, img, phase, note);
   cv::Mat small = img;
   for (int l = 0; l < levels; ++l) cv::pyrDown(small, small);
-  std::vector<ChartElement> kept_small = kept;
-  ChartDetection S = halved(D, kept_small, levels);
-  const bool anchored = anchor_at_scale(S, kept_small, small, phase, note);
+  std::vector<ChartElement> kept_small = kept, partial_small = partial;
+  ChartDetection S = halved(D, kept_small, partial_small, levels);
+  const bool anchored = anchor_at_scale(S, kept_small, partial_small, small, phase, note);
   D.largest_index = S.largest_index;
   return anchored;
 }
