@@ -233,3 +233,78 @@ TEST_CASE("chart detection: a blob on one bar's edge barely turns the pattern (t
   CAPTURE(off_deg);
   CHECK(off_deg < 1.2);  // the middle bar alone: 2.0 deg
 }
+
+TEST_CASE("chart detection: a sans-serif group number above an even group's element 1 anchors the chart") {
+  // Real charts print an even group's number a second time, above its
+  // element 1's H triplet towards the right end (dev_03's "4" and "6"). The
+  // generated chart's seven-segment labels are left out, so only OCR can
+  // read the one number drawn there, in a Hershey sans-serif face.
+  constexpr double px_per_mm = 60;
+  MilStdChartOptions o;
+  o.first_group = 0;
+  o.last_group = 3;
+  TargetLayout L = make_mil_std_chart(o);
+  std::erase_if(L.artwork, [](const ArtworkShape& s) { return s.role == ArtworkShape::Role::label; });
+  // Real charts put element 1's V triplet left of its H triplet; the
+  // generator puts every H triplet left. Swap G0E1's two, as printed.
+  ElementLayout* h1 = nullptr;
+  ElementLayout* v1 = nullptr;
+  for (ElementLayout& e : L.elements)
+    if (e.group == 0 && e.element == 1) (e.orientation == BarOrientation::horizontal_bars ? h1 : v1) = &e;
+  REQUIRE(h1 != nullptr);
+  REQUIRE(v1 != nullptr);
+  const double swap_mm = v1->bars_mm[0].x0 - h1->bars_mm[0].x0;
+  const auto same = [](const RectMm& a, const RectMm& b) { return a.x0 == b.x0 && a.y0 == b.y0 && a.x1 == b.x1; };
+  for (ArtworkShape& s : L.artwork)
+    for (int i = 0; i < 3; ++i) {
+      if (same(s.rect_mm, h1->bars_mm[i])) {
+        s.rect_mm = h1->bars_mm[i].translated({swap_mm, 0});
+        break;
+      }
+      if (same(s.rect_mm, v1->bars_mm[i])) {
+        s.rect_mm = v1->bars_mm[i].translated({-swap_mm, 0});
+        break;
+      }
+    }
+  for (int i = 0; i < 3; ++i) {
+    h1->bars_mm[i] = h1->bars_mm[i].translated({swap_mm, 0});
+    v1->bars_mm[i] = v1->bars_mm[i].translated({-swap_mm, 0});
+  }
+  const ImageF cov = coverage_raster(L, px_per_mm);
+  cv::Mat img(cov.height, cov.width, CV_32F);
+  for (int y = 0; y < cov.height; ++y)
+    for (int x = 0; x < cov.width; ++x) img.at<float>(y, x) = 0.85f - 0.8f * cov.pixels[size_t(y) * cov.width + x];
+  const ElementLayout* e1 = h1;
+  const double w_px = e1->bar_width_mm * px_per_mm;
+  const double cx = 0.5 * (e1->bars_mm[0].x0 + e1->bars_mm[0].x1) * px_per_mm + 3.5 * w_px;
+  const double cy = 0.5 * (e1->bars_mm[0].y0 + e1->bars_mm[2].y1) * px_per_mm - 4.1 * w_px;
+  const double text_h_px = 2.8 * w_px;
+  const double scale = cv::getFontScaleFromHeight(cv::FONT_HERSHEY_SIMPLEX, static_cast<int>(text_h_px), 3);
+  int baseline = 0;
+  const cv::Size size = cv::getTextSize("0", cv::FONT_HERSHEY_SIMPLEX, scale, 3, &baseline);
+  cv::Mat ink = cv::Mat::zeros(img.size(), CV_8U);
+  cv::putText(ink, "0", cv::Point(int(cx - 0.5 * size.width), int(cy + 0.5 * size.height)), cv::FONT_HERSHEY_SIMPLEX,
+              scale, cv::Scalar(255), 3, cv::LINE_AA);
+  cv::Mat ink_f;
+  ink.convertTo(ink_f, CV_32F, 0.8 / 255);
+  img -= ink_f;
+  cv::GaussianBlur(img, img, {0, 0}, 0.8);
+  // Whole, and with the frame's bottom edge across G0E1's third H bar: the
+  // H triplet is not found, only the V triplet beside it (its bars a tenth
+  // shorter), and the number's place follows from that partial element.
+  const int cut_rows = static_cast<int>((e1->bars_mm[2].y0 + 0.25 * e1->bar_width_mm) * px_per_mm);
+  for (const cv::Mat& view : {img, cv::Mat(img.rowRange(0, cut_rows))}) {
+    CAPTURE(view.rows);
+    const ChartDetection d = detect_chart(view, {});
+    REQUIRE(d.found);
+    CHECK(d.arrangement.recognised);
+    CHECK(d.anchor == ChartAnchor::printed_numbers);
+    CHECK(d.anchor_description.find("element 1") != std::string::npos);
+    // The largest element found is in group 0 (G0E1, or G0E2 when E1 is cut).
+    CHECK(d.elements.front().group == 0);
+    for (const ChartElement& e : d.elements) {
+      const double want = px_per_mm / std::exp2(e.group + (e.element - 1) / 6.0);
+      CHECK(e.period_px == doctest::Approx(want).epsilon(0.12));
+    }
+  }
+}
