@@ -32,14 +32,9 @@ int column_of(int n) {
   return m == 0 ? 0 : m <= 5 ? 1 : 2;
 }
 
-// Which side of its V triplet an element's H triplet stands on: on
-// MIL-STD-150A charts as made (Thorlabs, Edmund, printed copies) the H
-// triplet is left of the V triplet in the even group's column and right of
-// it elsewhere (the odd group's column and the even group's element 1); on
-// the chart tactres generates it is left everywhere. +1: left.
-int h_side(int n, bool generated_style) { return generated_style || column_of(n) == 1 ? 1 : -1; }
-
 }  // namespace
+
+int h_side(int n, bool generated_style) { return generated_style || column_of(n) == 1 ? 1 : -1; }
 
 // Phase (index of relative index 0, modulo 12) and handedness from the
 // topology of the arrangement, which every maker keeps while the spacings

@@ -313,9 +313,10 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const std:
 // whose period falls on the series at an index no element holds. Its
 // orientation on the chart follows from the nearest complete element
 // (chart x runs from an H triplet to its V partner); its partner would
-// stand `separation_periods` away along chart x.
+// stand D.separation_periods away along chart x. Group and element are
+// left to number_partial_elements (the anchor may not be known yet).
 std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::vector<int>& lone,
-                                           const ScaleField& field, double separation_periods, const cv::Mat& img) {
+                                           const ScaleField& field, const cv::Mat& img) {
   std::vector<ChartElement> partial;
   std::vector<int> taken;
   for (const ChartElement& e : D.elements) taken.push_back(e.relative_index);
@@ -339,7 +340,7 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
     const Vec2 ex = (1.0 / norm(d)) * d;
     const bool is_h = std::abs(dot(p.bar_dir, ex)) > std::cos(30 * M_PI / 180);
     // Where the missing pattern would be, with its strip's margin.
-    const Vec2 partner = p.center_px + ((is_h ? 1.0 : -1.0) * separation_periods * p.period_px) * ex;
+    const Vec2 partner = p.center_px + ((is_h ? 1.0 : -1.0) * D.separation_periods * p.period_px) * ex;
     const double r = 2.0 * p.period_px;
     const bool outside = partner.x - r < 0 || partner.y - r < 0 || partner.x + r > img.cols - 1 ||
                          partner.y + r > img.rows - 1;
@@ -347,9 +348,6 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
     (is_h ? e.h : e.v) = k;
     e.period_px = p.period_px;
     e.relative_index = index;
-    const int n = D.largest_index + index;
-    e.group = floor_div6(n);
-    e.element = n - 6 * e.group + 1;
     e.partial = outside ? ChartElement::Partial::partner_out_of_view : ChartElement::Partial::partner_not_found;
     e.partial_reason = fmt::format("only the {} pattern was found; the {} pattern {}", is_h ? "horizontal-bar" : "vertical-bar",
                                    is_h ? "vertical-bar" : "horizontal-bar",
@@ -360,6 +358,21 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
   }
   sort_by_index(partial);
   return partial;
+}
+
+// The partial elements that keep an index no element holds (a predicted
+// one may have taken it since), numbered by the anchor.
+void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partial) {
+  std::erase_if(partial, [&](const ChartElement& p) {
+    return std::any_of(D.elements.begin(), D.elements.end(),
+                       [&](const ChartElement& e) { return e.relative_index == p.relative_index; });
+  });
+  for (ChartElement& e : partial) {
+    const int n = D.largest_index + e.relative_index;
+    e.group = floor_div6(n);
+    e.element = n - 6 * e.group + 1;
+  }
+  D.partial = std::move(partial);
 }
 
 // ChartDetection::single_pattern: the one large pattern of either polarity,
@@ -428,7 +441,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   Pairing& pairing = D.light_bars ? el : ed;
   D.unpaired_patterns = pairing.unpaired;
   std::vector<ChartElement> elements = std::move(pairing.elements);
-  const double separation_periods = drop_odd_separations(D, elements);
+  D.separation_periods = drop_odd_separations(D, elements);
   if (elements.empty() && single_pattern_element(D, found, options)) return D;
   if (elements.empty()) {
     D.problem = D.patterns.empty()
@@ -463,7 +476,8 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   // stand by one (dev_03's "4" above its G4E1, whose H triplet the frame
   // cuts): the printed numbers are read beside them too.
   D.elements = kept;
-  anchor(D, kept, partial_elements(D, pairing.lone, field, separation_periods, img), field, options, img);
+  std::vector<ChartElement> partial = partial_elements(D, pairing.lone, field, img);
+  anchor(D, kept, partial, field, options, img);
   for (ChartElement& e : kept) {
     const int n = D.largest_index + e.relative_index;
     e.group = floor_div6(n);
@@ -475,7 +489,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   // field's distorted corner to its centre (dev_04/05's G6E6).
   predict_column_ends(D);
   if (nesting_centre_px) predict_nested_pairs(D, *nesting_centre_px, img.cols, img.rows);
-  D.partial = partial_elements(D, pairing.lone, field, separation_periods, img);
+  number_partial_elements(D, std::move(partial));
   D.found = true;
   return D;
 }

@@ -169,6 +169,19 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
 // a blurred 7 x 11 px blob as a confident "4" (dev_04).
 constexpr double kMinLabelCharPx = 12;
 
+// Which side of its V triplet the H triplet of the element of index n (any
+// relative index plus the arrangement's phase) stands on: on MIL-STD-150A
+// charts as made (Thorlabs, Edmund, printed copies) the H triplet is left
+// of the V triplet in the even group's column and right of it elsewhere
+// (the odd group's column and the even group's element 1); on the chart
+// tactres generates it is left everywhere. +1: left (chart_arrangement.cpp).
+int h_side(int n, bool generated_style);
+
+// The chart's +x (along its rows, un-mirrored) in the image, unit.
+inline Vec2 chart_x_px(const ChartDetection::Arrangement& A) {
+  return (A.mirrored ? -1.0 : 1.0) * Vec2{A.down_px.y, -A.down_px.x};
+}
+
 // The image around `center_px` turned upright and un-mirrored by the
 // arrangement's orientation (A.down_px, A.mirrored): a width x height patch
 // whose x runs along the chart's x and y down its columns
@@ -177,10 +190,11 @@ cv::Mat upright_patch(const cv::Mat& img, const ChartDetection::Arrangement& A, 
                       int height);
 
 // With the arrangement recognised (phase: the largest element's index
-// modulo 12), the group numbers printed above the columns, read upright
-// where the arrangement puts them: the largest element's absolute index
-// when they agree on one, else nullopt; `note` says what was read
-// (chart_group_labels.cpp).
+// modulo 12), the group numbers printed above the columns and above an
+// even group's element 1 (also a partial one, whose H triplet may be cut),
+// read upright where the arrangement puts them: the largest element's
+// absolute index when they agree on one, else nullopt; `note` says what
+// was read (chart_group_labels.cpp).
 std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDetection& D,
                                             const std::vector<ChartElement>& kept,
                                             const std::vector<ChartElement>& partial, const cv::Mat& img, int phase,

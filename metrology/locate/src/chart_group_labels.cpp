@@ -1,7 +1,7 @@
-// The group numbers printed above the columns of a chart whose arrangement
-// was recognised (chart_detect.h, "Anchor"): read where the arrangement
-// says they stand, turned upright by its orientation, by OCR in any
-// typeface. The phase fixes the largest element's index modulo 12, so each
+// The group numbers printed above the columns (and above an even group's
+// element 1) of a chart whose arrangement was recognised (chart_detect.h,
+// "Anchor"): read where the arrangement says they stand, turned upright by
+// its orientation, by OCR in any typeface. The phase fixes the largest element's index modulo 12, so each
 // number read chooses among k = phase + 12 j.
 
 #include <algorithm>
@@ -20,7 +20,7 @@ namespace tactres::locate_detail {
 cv::Mat upright_patch(const cv::Mat& img, const ChartDetection::Arrangement& A, Vec2 center_px, int width,
                       int height) {
   const Vec2 down = A.down_px;
-  const Vec2 x_dir = (A.mirrored ? -1.0 : 1.0) * Vec2{down.y, -down.x};
+  const Vec2 x_dir = chart_x_px(A);
   const Vec2 o = center_px - (0.5 * width) * x_dir - (0.5 * height) * down;
   // Upright patch pixel (u, v) <- image o + u x_dir + v down.
   const cv::Matx23d patch_to_image(x_dir.x, down.x, o.x, x_dir.y, down.y, o.y);
@@ -83,16 +83,34 @@ std::optional<Site> column_site(const ChartDetection& D, const ChartElement& e, 
   return std::nullopt;
 }
 
+// Where the middle of pattern p's bars would be had the frame not cut
+// them: bars shorter than 2.5 periods whose end lies within half a period
+// of the image's edge were cut there, so the middle lies that way by half
+// the missing length (a frame cutting G4E1's V triplet moved its centre
+// 0.5 bar widths, enough to clip the number above its H triplet).
+Vec2 uncut_center(const BarPattern& p, const cv::Mat& img) {
+  const double missing_px = 2.5 * p.period_px - p.bar_length_px;
+  if (missing_px <= 0) return p.center_px;
+  const auto to_edge = [&](Vec2 q) { return std::min({q.x, q.y, img.cols - 1 - q.x, img.rows - 1 - q.y}); };
+  for (const double sign : {1.0, -1.0}) {
+    const Vec2 end = p.center_px + (sign * 0.5 * p.bar_length_px) * p.bar_dir;
+    if (to_edge(end) < 0.5 * p.period_px) return p.center_px + (sign * 0.5 * missing_px) * p.bar_dir;
+  }
+  return p.center_px;
+}
+
 // Above an even group's element 1's H triplet, found or (for a partial
-// element whose V triplet alone was found) `separation_periods` along the
-// chart's x from its V triplet: element 1 has its V triplet on the left.
-std::optional<Site> element_one_site(const ChartDetection& D, const ChartElement& e, double separation_periods,
-                                     const cv::Mat& img) {
+// element whose V triplet alone was found) D.separation_periods along the
+// chart's x from its V triplet, on the side the maker's style puts it
+// (h_side).
+std::optional<Site> element_one_site(const ChartDetection& D, const ChartElement& e, int phase, const cv::Mat& img) {
   const ChartDetection::Arrangement& A = D.arrangement;
-  const Vec2 x_dir = (A.mirrored ? -1.0 : 1.0) * Vec2{A.down_px.y, -A.down_px.x};
+  const Vec2 x_dir = chart_x_px(A);
   if (e.h < 0 && e.v < 0) return std::nullopt;
+  const double h_left = h_side(e.relative_index + phase, A.generated_style);
   const Vec2 h_center = e.h >= 0 ? D.patterns[e.h].center_px
-                                 : D.patterns[e.v].center_px + (separation_periods * e.period_px) * x_dir;
+                                 : uncut_center(D.patterns[e.v], img) -
+                                       (h_left * D.separation_periods * e.period_px) * x_dir;
   const double w = 0.5 * e.period_px;
   const Vec2 c = h_center + (kE1RightW * w) * x_dir - (0.5 * (kE1FromW + kE1ToW) * w) * A.down_px;
   const int height = static_cast<int>(std::lround((kE1ToW - kE1FromW) * w));
@@ -108,17 +126,6 @@ std::optional<Site> element_one_site(const ChartDetection& D, const ChartElement
   return std::nullopt;
 }
 
-// The H-to-V centre distance of the complete elements, in their periods
-// (the median).
-double separation_periods(const ChartDetection& D, const std::vector<ChartElement>& kept) {
-  std::vector<double> s;
-  for (const ChartElement& e : kept)
-    s.push_back(norm(D.patterns[e.v].center_px - D.patterns[e.h].center_px) / e.period_px);
-  if (s.empty()) return 3.5;
-  std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(s.size() / 2), s.end());
-  return s[s.size() / 2];
-}
-
 }  // namespace
 
 std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDetection& D,
@@ -127,14 +134,13 @@ std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDete
                                             std::string& note) {
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
   std::vector<Site> sites;
-  const double separation = separation_periods(D, kept);
   for (const std::vector<ChartElement>* list : {&kept, &partial})
     for (const ChartElement& e : *list) {
       const int n12 = mod12(e.relative_index + phase);
       const bool complete = e.h >= 0 && e.v >= 0;
       std::optional<Site> site;
       if (complete && (n12 == 1 || n12 == 6)) site = column_site(D, e, n12, img);
-      if (n12 == 0) site = element_one_site(D, e, separation, img);
+      if (n12 == 0) site = element_one_site(D, e, phase, img);
       if (site && 0.4 * site->height >= kMinLabelCharPx) sites.push_back(*site);
     }
   std::map<int, int> votes;  // j -> readings that fit k = phase + 12 j

@@ -69,7 +69,8 @@ class PlacementStore {
   // for the usual margin.
   ProfileSamplingOptions fitted_in_view(const PatternRef& r, const PatternFrame& f, ProfileSamplingOptions so) const;
   // The frame moved onto the pattern across the bars (by correlation with
-  // the ideal pattern); a predicted pattern keeps the frame of its column.
+  // the ideal pattern, within 0.6 bar). Callers decide whether a predicted
+  // pattern is recentred (chart_measure.cpp: only as a second placement).
   PatternFrame recentre(const PatternRef& r, PatternFrame f, const ProfileSamplingOptions& so) const;
 
  private:

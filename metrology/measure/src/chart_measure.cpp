@@ -60,8 +60,9 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
   return frames;
 }
 
-// One job per pattern: its final frame (recentred at the smoothed scale)
-// and a second placement where it lies more than a tenth of a bar away,
+// One job per pattern: its final frame (a found pattern's recentred at the
+// smoothed scale; a predicted one's where its column or the nesting put
+// it) and a second placement where it lies more than a tenth of a bar away,
 // the pipeline keeping whichever the model fits better (a misplaced
 // pattern reads as blur):
 // - a found pattern: its detected centre. On faint, barely sampled
@@ -99,10 +100,11 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
     if (pattern.predicted) second = store.recentre(r, f, job.sampling);
     else second.center_px = pattern.center_px;
     if (norm(second.center_px - f.center_px) > 0.1 * e.px_per_bar)
-      job.placements.push_back(store.place(r, second, job.sampling));
-    // A predicted pattern is placed by its column or the nesting, more
-    // precisely than its faint bars could place it; a found one is centred
-    // on its data.
+      job.placements.push_back(store.place(r, second, store.fitted_in_view(r, second, job.sampling)));
+    // A found pattern's fit moves its bars within a quarter of a bar
+    // (refine_shift_by_fit); a predicted one's does not, so that its faint
+    // bars' noise cannot pull a fit onto them: only the correlation
+    // centring above offers it a second place.
     if (!pattern.predicted)
       job.prepare = [w = r.bar_width_mm(), shifts](const ProfileData& d, const ProfileFitOptions& o) {
         double shift_mm = 0;
@@ -414,7 +416,7 @@ ChartFrameResult measure_tracked(const LoadedImage& image, const ChartMeasureOpt
   for (const SampledProfile& sp : anchor_profiles) pool.push_back(&sp);
   // Fitting every element pools the coarse ones' noise as a refit does;
   // fitting a few near the limit takes the anchors' coarse strips instead.
-  const GradingContext context{M.reference, mo, false, plan.fit_element ? &pool : nullptr};
+  const GradingContext context{M.reference, mo, false, true, plan.fit_element ? &pool : nullptr};
   std::vector<ElementResult> fitted;
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, context, fitted)});
   M.elements = T.elements;
@@ -483,7 +485,7 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   set_nyquist(frames, M);
 
   std::vector<size_t> graded;
-  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false}, M.elements, &graded)});
+  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false, true}, M.elements, &graded)});
   if (track) *track = make_track(image, D, refs, jobs, profiles, graded, shifts, store, M);
   decide_chart(D, mo, M);
   if (track && M.usable) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <tuple>
 
 #include <fmt/format.h>
@@ -43,20 +44,21 @@ std::string clipped_note(const SampledProfile& sp, const std::string& rest = "")
 // signature is a slope, with no dips to read.
 void note_flat_gap(ElementResult& r, const ProfileData& d, double contrast) {
   const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, contrast);
-  if (!g.one_gap_flat()) return;
+  const std::optional<int> flat = g.flat_gap();
+  if (!flat) return;
   r.gap_flat = true;
-  const int k = g.flat_gap();
-  const std::string flat =
+  const int k = *flat;
+  const std::string why =
       fmt::format("its {} gap shows no dip ({:.1f} sigma; the other dips {:.1f} sigma): two bars are seen, not "
                   "three, so it is not resolved",
                   k == 0 ? "first" : "second", g.dip[k] / g.sigma[k], g.dip[1 - k] / g.sigma[1 - k]);
-  r.note = r.note.empty() ? flat : flat + "; " + r.note;
+  r.note = r.note.empty() ? why : why + "; " + r.note;
 }
 }  // namespace
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
                      const MeasureOptions& options, std::pair<double, double>& warm_lsf,
-                     const ProfilePrepare& prepare, bool model_mismatch) {
+                     const ProfilePrepare& prepare, bool model_mismatch, bool read_gap_dips) {
   r.outline_px = sp.outline_px;
   r.outline_valid = sp.in_view;
   if (!sp.in_view) {
@@ -165,7 +167,8 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
                            "m_sigma is widened by sqrt(chi^2){}",
                            fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
   }
-  if (r.status == ElementStatus::ok && fo.signature == Signature::albedo) note_flat_gap(r, data, fo.contrast);
+  if (read_gap_dips && r.status == ElementStatus::ok && fo.signature == Signature::albedo)
+    note_flat_gap(r, data, fo.contrast);
   if (clipped && r.status == ElementStatus::ok)
     r.note = clipped_note(sp, ": fitted with those bins as bounds" + (r.note.empty() ? "" : "; " + r.note));
   return seconds;
@@ -221,9 +224,10 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
       e.note = fmt::format(
           "{}; the finer G{}E{} and G{}E{} read m = {:.2f} and {:.2f}: a local defect over this element (dust, a "
           "scratch, the field's blurred edge), not the optics; left out of the limit",
-          fitted ? fmt::format("its bars read m = {:.2f} +- {:.2f}", m, sigma)
-                 : std::string(e.status == ElementStatus::aliased ? "its profile does not show the element's bars"
-                                                                  : "the fit drives its m to 0"),
+          e.gap_flat ? fmt::format("its bars read m = {:.2f} +- {:.2f}, but one gap shows no dip", m, sigma)
+          : fitted   ? fmt::format("its bars read m = {:.2f} +- {:.2f}", m, sigma)
+                     : std::string(e.status == ElementStatus::aliased ? "its profile does not show the element's bars"
+                                                                      : "the fit drives its m to 0"),
           f1.group, f1.element, f2.group, f2.element, f1.m, f2.m);
       e.status = ElementStatus::damaged;
     }

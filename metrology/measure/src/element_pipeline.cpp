@@ -127,14 +127,14 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
     const ElementResult ungraded = r;  // each placement is graded from scratch
     const SampledProfile* graded_on = &profiles[j].front();
     fit_seconds += grade_element(r, profiles[j].front(), fo, step.contrast_sigma, context.options, warm, job.prepare,
-                                 context.model_mismatch);
+                                 context.model_mismatch, context.read_gap_dips);
     // Another placement replaces the first only when the model fits it better.
     for (size_t k = 1; k < profiles[j].size(); ++k) {
       if (!profiles[j][k].in_view) continue;
       ElementResult alt = ungraded;
       std::pair<double, double> alt_warm = warm_before;
       fit_seconds += grade_element(alt, profiles[j][k], fo, step.contrast_sigma, context.options, alt_warm,
-                                   job.prepare, context.model_mismatch);
+                                   job.prepare, context.model_mismatch, context.read_gap_dips);
       const bool r_fitted = r.chi2_reduced > 0, alt_fitted = alt.chi2_reduced > 0;
       if (alt_fitted && (!r_fitted || alt.chi2_reduced < r.chi2_reduced)) {
         r = alt;

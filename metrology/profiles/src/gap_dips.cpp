@@ -43,14 +43,12 @@ WindowMean window_mean(const ProfileData& d, double center_mm, double half_mm, i
 
 }  // namespace
 
-bool GapDips::one_gap_flat() const {
-  if (!valid) return false;
+std::optional<int> GapDips::flat_gap() const {
+  if (!valid) return std::nullopt;
   for (int k = 0; k < 2; ++k)
-    if (dip[k] < 2 * sigma[k] && dip[1 - k] > 5 * sigma[1 - k]) return true;
-  return false;
+    if (dip[k] < 2 * sigma[k] && dip[1 - k] > 5 * sigma[1 - k]) return k;
+  return std::nullopt;
 }
-
-int GapDips::flat_gap() const { return dip[0] - 2 * sigma[0] < dip[1] - 2 * sigma[1] ? 0 : 1; }
 
 namespace {
 

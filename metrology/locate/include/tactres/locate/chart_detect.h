@@ -110,6 +110,7 @@ struct ChartDetection {
   std::string anchor_description;   // what the anchor was, in words
   int largest_index = 0;            // absolute series index 6 g + e - 1 of relative index 0
   int unpaired_patterns = 0;        // patterns found without a partner (measured only in `partial`)
+  double separation_periods = 3.5;  // an element's H-to-V centre distance in its periods (the chart's median)
   // Elements placed, not found (their patterns are `predicted`):
   // - the element after the finest one found in a column, where three found
   //   elements in a row fix the column's geometric progression (each element

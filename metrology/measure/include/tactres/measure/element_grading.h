@@ -41,6 +41,10 @@
 // - `prepare`, when given, transforms the profile before the final fit with
 //   the same fit options (chart mode centres the ideal pattern on the data
 //   there); its time counts as fitting time.
+// - `read_gap_dips` (chart photographs): an ok element of printed bars
+//   (albedo) whose profile shows one gap flat while the other dips
+//   (profiles/gap_dips.h) gets r.gap_flat and a note; decide_limits never
+//   resolves it. Layout mode keeps the criterion the truth file uses.
 // - Returns the seconds spent fitting (0 when no fit ran). Never throws for
 //   a bad profile: every failure is a status.
 
@@ -56,7 +60,7 @@ using ProfilePrepare = std::function<ProfileData(const ProfileData&, const Profi
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
                      const MeasureOptions& options, std::pair<double, double>& warm_lsf,
-                     const ProfilePrepare& prepare = {}, bool model_mismatch = false);
+                     const ProfilePrepare& prepare = {}, bool model_mismatch = false, bool read_gap_dips = false);
 
 // The limits per orientation from M.elements: the optical limit under
 // `criterion`, the detectability limit under `detectability`, both into

@@ -59,6 +59,9 @@ struct GradingContext {
   const ReferenceResult& reference;  // signature and the level step per orientation
   const MeasureOptions& options;
   bool model_mismatch = false;       // a global mismatch (wrong encoding): no element is called aliased
+  // Chart photographs: an ok element with one flat gap is not resolved
+  // (element_grading.h, grade_element's read_gap_dips).
+  bool read_gap_dips = false;
   // The strips whose noise models give every element its per-pixel noise
   // (the CNR). Null: the coarse ok strips among the jobs, as always; a live
   // frame that fits only the elements near the limit passes coarse strips

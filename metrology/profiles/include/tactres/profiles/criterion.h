@@ -3,7 +3,8 @@
 // measurement (measure), so that both sides define "limit" identically.
 //
 // An element is resolved when m(f) >= threshold and m(f) is significantly
-// above zero: m - z * m_sigma > 0. The discrete limit of an orientation is
+// above zero: m - z * m_sigma > 0. (Chart mode adds that both gaps of a
+// photographed triplet dip, gap_dips.h; it has no truth file to match.) The discrete limit of an orientation is
 // the finest element such that it and every coarser element are resolved.
 // An element that was not measured (its fit failed, it is clipped, damaged,
 // or out of a chart photograph's view) says nothing either way: the chain

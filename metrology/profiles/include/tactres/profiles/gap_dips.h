@@ -13,6 +13,8 @@
 // Units: u and widths in mm of the target plane (the profile's own);
 // dips in the profile's value units.
 
+#include <optional>
+
 #include "tactres/profiles/profile_fit.h"
 
 namespace tactres {
@@ -26,12 +28,11 @@ struct GapDips {
   double dip[2] = {0, 0};
   double sigma[2] = {0, 0};
 
-  // A gap shows no dip (under 2 sigma) while the other clearly does (over
-  // 5 sigma, so the data could show one there). Two shallow gaps are the
-  // model's business (a blurred element reads a low m), not this check's.
-  bool one_gap_flat() const;
-  // The flat gap (0 or 1); meaningful when one_gap_flat().
-  int flat_gap() const;
+  // The gap (0 or 1) that shows no dip (under 2 sigma) while the other
+  // clearly does (over 5 sigma, so the data could show one there), if
+  // any. Two shallow gaps are the model's business (a blurred element
+  // reads a low m), not this check's.
+  std::optional<int> flat_gap() const;
 };
 
 // The dips of the measured triplet of `d`: its three bars are the ideal's
