@@ -1,0 +1,70 @@
+#include "tactres/measure/element_pipeline.h"
+
+#include <cmath>
+
+#include <doctest/doctest.h>
+#include <opencv2/imgproc.hpp>
+
+using namespace tactres;
+
+TEST_CASE("grade_jobs: each placement is graded from scratch, and the better fit wins") {
+  // A vertical-bar triplet, bar width 0.1 mm at 40 px/mm (4 px per bar),
+  // ground 0.9 x (1 - 0.8 S), lightly blurred, with noise of 0.01,
+  // centred at (100, 100).
+  constexpr double w_mm = 0.1, px_per_mm = 40;
+  constexpr int sub = 8;  // drawn at 8 x 8 samples a pixel, then averaged: area coverage
+  cv::Mat fine(200 * sub, 200 * sub, CV_32F, cv::Scalar(0)), ink;
+  for (int y = 0; y < fine.rows; ++y)
+    for (int x = 0; x < fine.cols; ++x) {
+      const double u = ((x + 0.5) / sub - 100) / px_per_mm, v = ((y + 0.5) / sub - 100) / px_per_mm;
+      for (int k = -1; k <= 1; ++k)
+        if (std::abs(u - 2 * k * w_mm) < 0.5 * w_mm && std::abs(v) < 2.5 * w_mm) fine.at<float>(y, x) = 1;
+    }
+  cv::resize(fine, ink, {200, 200}, 0, 0, cv::INTER_AREA);
+  cv::GaussianBlur(ink, ink, {0, 0}, 1.0);
+  cv::Mat lum = 0.9 * (1 - 0.8 * ink), noise(lum.size(), CV_32F);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, 0.01);
+  lum += noise;
+
+  ElementLayout e;
+  e.bar_width_mm = w_mm;
+  e.lp_per_mm = 0.5 / w_mm;
+  e.orientation = BarOrientation::vertical_bars;
+  std::vector<ArtworkShape> shapes;
+  for (int k = -1; k <= 1; ++k) {
+    e.bars_mm[k + 1] = {(2 * k - 0.5) * w_mm, -2.5 * w_mm, (2 * k + 0.5) * w_mm, 2.5 * w_mm};
+    shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, e.bars_mm[k + 1], {}, 0, {}});
+  }
+  const IndexedArtwork artwork(shapes);
+  // First a place one bar off (the bars where the gaps are: the fit drives
+  // m to 0 and says so), then the right one.
+  const PatternFrame off({99.5 + w_mm * px_per_mm, 99.5}, {1, 0}, px_per_mm);
+  const PatternFrame right({99.5, 99.5}, {1, 0}, px_per_mm);  // pixel centres at integers
+  ElementJob job;
+  job.element = ElementResult::of(2, 1, BarOrientation::vertical_bars, e.lp_per_mm, w_mm * px_per_mm);
+  job.placements = {{&off, &artwork, element_strip(e, job.sampling)}, {&right, &artwork, element_strip(e, job.sampling)}};
+  const std::vector<ElementJob> jobs{job};
+  const auto profiles = sample_jobs(lum, jobs, 1.0);
+
+  ReferenceResult ref;
+  ref.usable = true;
+  ref.horizontal_bars = ref.vertical_bars = {-0.8, 0.005, 1.0};  // relative to the ground
+  const MeasureOptions mo;
+  std::vector<ElementResult> alone, both;
+  std::vector<size_t> placement;
+  const std::vector<ElementJob> first_only{ElementJob{job.element, {job.placements.front()}, job.sampling, false, {}}};
+  grade_jobs(first_only, sample_jobs(lum, first_only, 1.0), {ref, mo}, alone);
+  REQUIRE(alone.size() == 1);
+  CHECK(alone[0].status != ElementStatus::ok);  // misplaced: reads as no bars
+  CHECK(alone[0].note.find("m to 0") != std::string::npos);
+
+  grade_jobs(jobs, profiles, {ref, mo}, both, &placement);
+  REQUIRE(both.size() == 1);
+  CHECK(placement[0] == 1);
+  CHECK(both[0].status == ElementStatus::ok);
+  CHECK(both[0].m > 0.5);
+  // Nothing of the first placement's grading is left on the winner.
+  CHECK(both[0].note.empty());
+  CHECK_FALSE(both[0].m_undetermined);
+}
