@@ -1,8 +1,9 @@
 // The group numbers printed above the columns (and above an even group's
 // element 1) of a chart whose arrangement was recognised (chart_detect.h,
 // "Anchor"): read where the arrangement says they stand, turned upright by
-// its orientation, by OCR in any typeface. The phase fixes the largest element's index modulo 12, so each
-// number read chooses among k = phase + 12 j.
+// its orientation, by OCR in any typeface. The phase fixes the largest
+// element's index modulo 12, so each number read chooses among
+// k = phase + 12 j.
 
 #include <algorithm>
 #include <cmath>
