@@ -309,6 +309,23 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const std:
   }
 }
 
+// Whether the missing pattern of partial element `e` would lie in the
+// image (with its strip's margin): it stands D.separation_periods along
+// `h_to_v` (the image direction from an H triplet to its V partner) from
+// the found one. Sets e.partial and its reason.
+void place_partner(const ChartDetection& D, ChartElement& e, Vec2 h_to_v, int cols, int rows) {
+  const bool is_h = e.h >= 0;
+  const BarPattern& p = D.patterns[is_h ? e.h : e.v];
+  const Vec2 partner = p.center_px + ((is_h ? 1.0 : -1.0) * D.separation_periods * p.period_px) * h_to_v;
+  const double r = 2.0 * p.period_px;
+  const bool outside = partner.x - r < 0 || partner.y - r < 0 || partner.x + r > cols - 1 || partner.y + r > rows - 1;
+  e.partial = outside ? ChartElement::Partial::partner_out_of_view : ChartElement::Partial::partner_not_found;
+  e.partial_reason = fmt::format("only the {} pattern was found; the {} pattern {}", is_h ? "horizontal-bar" : "vertical-bar",
+                                 is_h ? "vertical-bar" : "horizontal-bar",
+                                 outside ? "lies outside the image (the element is partly out of view)"
+                                         : "is in the image but was not found there");
+}
+
 // Partial elements (ChartElement::partial): a lone, well-sampled pattern
 // whose period falls on the series at an index no element holds. Its
 // orientation on the chart follows from the nearest complete element
@@ -338,21 +355,11 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
     if (!near) continue;
     const Vec2 d = D.patterns[near->v].center_px - D.patterns[near->h].center_px;
     const Vec2 ex = (1.0 / norm(d)) * d;
-    const bool is_h = std::abs(dot(p.bar_dir, ex)) > std::cos(30 * M_PI / 180);
-    // Where the missing pattern would be, with its strip's margin.
-    const Vec2 partner = p.center_px + ((is_h ? 1.0 : -1.0) * D.separation_periods * p.period_px) * ex;
-    const double r = 2.0 * p.period_px;
-    const bool outside = partner.x - r < 0 || partner.y - r < 0 || partner.x + r > img.cols - 1 ||
-                         partner.y + r > img.rows - 1;
     ChartElement e;
-    (is_h ? e.h : e.v) = k;
+    (std::abs(dot(p.bar_dir, ex)) > std::cos(30 * M_PI / 180) ? e.h : e.v) = k;
     e.period_px = p.period_px;
     e.relative_index = index;
-    e.partial = outside ? ChartElement::Partial::partner_out_of_view : ChartElement::Partial::partner_not_found;
-    e.partial_reason = fmt::format("only the {} pattern was found; the {} pattern {}", is_h ? "horizontal-bar" : "vertical-bar",
-                                   is_h ? "vertical-bar" : "horizontal-bar",
-                                   outside ? "lies outside the image (the element is partly out of view)"
-                                           : "is in the image but was not found there");
+    place_partner(D, e, ex, img.cols, img.rows);
     taken.push_back(index);
     partial.push_back(e);
   }
@@ -361,16 +368,23 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
 }
 
 // The partial elements that keep an index no element holds (a predicted
-// one may have taken it since), numbered by the anchor.
-void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partial) {
+// one may have taken it since), numbered by the anchor. With the
+// arrangement recognised, each missing partner is placed on the side the
+// maker's style puts it (h_side: an element 1 or an odd group's element
+// has its H triplet right of the V on real charts), not the side of the
+// nearest complete element.
+void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partial, int cols, int rows) {
   std::erase_if(partial, [&](const ChartElement& p) {
     return std::any_of(D.elements.begin(), D.elements.end(),
                        [&](const ChartElement& e) { return e.relative_index == p.relative_index; });
   });
+  const ChartDetection::Arrangement& A = D.arrangement;
   for (ChartElement& e : partial) {
     const int n = D.largest_index + e.relative_index;
     e.group = floor_div6(n);
     e.element = n - 6 * e.group + 1;
+    if (A.recognised)
+      place_partner(D, e, double(h_side(e.relative_index + A.phase, A.generated_style)) * chart_x_px(A), cols, rows);
   }
   D.partial = std::move(partial);
 }
@@ -489,7 +503,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   // field's distorted corner to its centre (dev_04/05's G6E6).
   predict_column_ends(D);
   if (nesting_centre_px) predict_nested_pairs(D, *nesting_centre_px, img.cols, img.rows);
-  number_partial_elements(D, std::move(partial));
+  number_partial_elements(D, std::move(partial), img.cols, img.rows);
   D.found = true;
   return D;
 }
