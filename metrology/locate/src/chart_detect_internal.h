@@ -195,9 +195,9 @@ cv::Mat upright_patch(const cv::Mat& img, const ChartDetection::Arrangement& A, 
 // read upright where the arrangement puts them: the largest element's
 // absolute index when they agree on one, else nullopt; `note` says what
 // was read (chart_group_labels.cpp).
-std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDetection& D,
-                                            const std::vector<ChartElement>& kept,
-                                            const std::vector<ChartElement>& partial, const cv::Mat& img, int phase,
-                                            std::string& note);
+std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const ChartDetection& D,
+                                                   const std::vector<ChartElement>& kept,
+                                                   const std::vector<ChartElement>& partial, const cv::Mat& img,
+                                                   int phase, std::string& note);
 
 }  // namespace tactres::locate_detail

@@ -129,10 +129,10 @@ std::optional<Site> element_one_site(const ChartDetection& D, const ChartElement
 
 }  // namespace
 
-std::optional<int> index_from_column_labels(LabelReader& reader, const ChartDetection& D,
-                                            const std::vector<ChartElement>& kept,
-                                            const std::vector<ChartElement>& partial, const cv::Mat& img, int phase,
-                                            std::string& note) {
+std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const ChartDetection& D,
+                                                   const std::vector<ChartElement>& kept,
+                                                   const std::vector<ChartElement>& partial, const cv::Mat& img,
+                                                   int phase, std::string& note) {
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
   std::vector<Site> sites;
   for (const std::vector<ChartElement>* list : {&kept, &partial})

@@ -237,13 +237,14 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
   }
   if (phase) {
     // First where the arrangement puts the group numbers.
-    std::string column_note;
-    if (const std::optional<int> k = index_from_column_labels(*reader, D, kept, partial, img, *phase, column_note)) {
+    std::string placed_note;
+    if (const std::optional<int> k =
+            index_from_placed_group_numbers(*reader, D, kept, partial, img, *phase, placed_note)) {
       D.largest_index = *k;
-      note = column_note;
+      note = placed_note;
       return true;
     }
-    note = column_note + "; ";
+    note = placed_note + "; ";
   }
   std::vector<ChartElement> beside = kept;
   beside.insert(beside.end(), partial.begin(), partial.end());

@@ -83,7 +83,8 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
   }
   const Stopwatch fit_time;
   std::tie(fo.start_nu0_per_mm, fo.start_beta) = warm_lsf;
-  const ProfileData data = prepare ? prepare(sp.data, fo) : sp.data;
+  const ProfileData prepared = prepare ? prepare(sp.data, fo) : ProfileData{};
+  const ProfileData& data = prepare ? prepared : sp.data;  // no copy without a prepare
   const ProfileFit fit = fit_profile(data, fo);
   if (fit.usable && !clipped) warm_lsf = {fit.nu0_per_mm, fit.beta};
   const double seconds = fit_time.seconds();

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tactres/camera/plane_map.h"
+#include "test_triplet.h"
 
 using namespace tactres;
 
@@ -81,16 +82,9 @@ SampledProfile clipped_triplet(double ground, double blur_px, double period_scal
   cv::GaussianBlur(ink, ink, {0, 0}, blur_px);
   cv::Mat lum = ground * (1 - 0.8 * ink);
   cv::min(lum, 1.0, lum);
-  ElementLayout e;
-  e.bar_width_mm = w_mm;
-  e.lp_per_mm = 0.5 / w_mm;
-  e.orientation = BarOrientation::vertical_bars;
-  std::vector<ArtworkShape> shapes;
-  for (int k = -1; k <= 1; ++k) {
-    e.bars_mm[k + 1] = {(2 * k - 0.5) * w_mm, -2.5 * w_mm, (2 * k + 0.5) * w_mm, 2.5 * w_mm};
-    shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, e.bars_mm[k + 1], {}, 0, {}});
-  }
-  const IndexedArtwork artwork(shapes);
+  const test::TripletLayout triplet = test::vertical_triplet(w_mm);
+  const ElementLayout& e = triplet.element;
+  const IndexedArtwork artwork(triplet.shapes);
   const PatternFrame frame({100, 100}, {1, 0}, px_per_mm);
   const ProfileSamplingOptions so;
   return sample_strip(lum, frame, artwork, element_strip(e, so), so, 1.0);

@@ -5,6 +5,8 @@
 #include <doctest/doctest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "test_triplet.h"
+
 using namespace tactres;
 
 TEST_CASE("grade_jobs: each placement is graded from scratch, and the better fit wins") {
@@ -27,16 +29,9 @@ TEST_CASE("grade_jobs: each placement is graded from scratch, and the better fit
   rng.fill(noise, cv::RNG::NORMAL, 0.0, 0.01);
   lum += noise;
 
-  ElementLayout e;
-  e.bar_width_mm = w_mm;
-  e.lp_per_mm = 0.5 / w_mm;
-  e.orientation = BarOrientation::vertical_bars;
-  std::vector<ArtworkShape> shapes;
-  for (int k = -1; k <= 1; ++k) {
-    e.bars_mm[k + 1] = {(2 * k - 0.5) * w_mm, -2.5 * w_mm, (2 * k + 0.5) * w_mm, 2.5 * w_mm};
-    shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, e.bars_mm[k + 1], {}, 0, {}});
-  }
-  const IndexedArtwork artwork(shapes);
+  const test::TripletLayout triplet = test::vertical_triplet(w_mm);
+  const ElementLayout& e = triplet.element;
+  const IndexedArtwork artwork(triplet.shapes);
   // First a place one bar off (the bars where the gaps are: the fit drives
   // m to 0 and says so), then the right one.
   const PatternFrame off({99.5 + w_mm * px_per_mm, 99.5}, {1, 0}, px_per_mm);
