@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <cstdlib>
 #include <optional>
 #include <tuple>
 
@@ -54,6 +57,33 @@ void note_flat_gap(ElementResult& r, const ProfileData& d, double contrast) {
                   k == 0 ? "first" : "second", g.dip[k] / g.sigma[k], g.dip[1 - k] / g.sigma[1 - k]);
   r.note = r.note.empty() ? why : why + "; " + r.note;
 }
+// A clipped element whose fit cannot measure m (the clipping, or a
+// resampled photograph's halos, bend its profile beyond the model), yet
+// whose data show all three bars (profiles/gap_dips.h): m is read from the
+// shallower gap's dip, model-free. Near the limit only the bars'
+// fundamental is left, whose crest-to-trough is 4/pi m of the level step;
+// the windows' half-bar width and a sharper triplet's harmonics make the
+// dip read that m low, never high, so the reading is conservative. Printed
+// bars in chart photographs only. Returns whether it graded `r`.
+bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileData& d, const ProfileFit& fit,
+                     const ProfileFitOptions& fo, double contrast_sigma, const std::string& why) {
+  if (!fit.usable || fo.signature != Signature::albedo) return false;
+  const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast);
+  if (!g.three_bars()) return false;
+  const int k = g.dip[0] < g.dip[1] ? 0 : 1;
+  const double step = std::abs(rms_step_over_triplet(fo.contrast, fo.contrast_slope_per_mm, r.lp_per_mm));
+  const double m = std::numbers::pi / 4 * g.dip[k] / step;
+  r.m = std::min(m, 1.0);
+  r.m_sigma = std::hypot(std::numbers::pi / 4 * g.sigma[k] / step, m * contrast_sigma / step);
+  r.chi2_reduced = fit.chi2_reduced;
+  r.m_from_dips = true;
+  r.status = ElementStatus::ok;
+  set_signal(r, sp, fit, fo);
+  r.note = fmt::format("{}, but both gaps dip ({:.0f} and {:.0f} sigma): m is read model-free, pi/4 of the shallower "
+                       "dip over the level step (a conservative reading)",
+                       why, g.dip[0] / g.sigma[0], g.dip[1] / g.sigma[1]);
+  return true;
+}
 }  // namespace
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
@@ -91,6 +121,11 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
   if (!fit.usable || (clipped && fit.transfer_sigma(r.lp_per_mm) > options.max_m_sigma)) {
     // What the clipping left does not pin the bars down: clipped, not a
     // failed fit or a faint element.
+    if (clipped && read_gap_dips &&
+        grade_from_dips(r, sp, data, fit, fo, contrast_sigma, "the rest does not pin the model's m down")) {
+      r.note = clipped_note(sp, ": fitted with those bins as bounds; " + r.note);
+      return seconds;
+    }
     r.status = clipped ? ElementStatus::clipped : ElementStatus::fit_failed;
     if (clipped) r.note = clipped_note(sp, "; the rest does not pin m down");
     return seconds;
@@ -126,7 +161,10 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     // clipping distorted beyond the model (a resampled photograph's
     // overshoot at the clip level): such an element stays `clipped`, as
     // it was before clipped bins were fitted as bounds.
-    if (clipped) {
+    if (clipped && read_gap_dips &&
+        grade_from_dips(r, sp, data, fit, fo, contrast_sigma,
+                        fmt::format("the model misses the data (reduced chi^2 {:.3g})", fit.chi2_reduced))) {
+    } else if (clipped) {
       r.status = ElementStatus::clipped;
       r.note = clipped_note(sp, fmt::format("; the fit with them as bounds misses the data (reduced chi^2 {:.3g}, "
                                             "misfit as large as the bars' signal)",

@@ -69,8 +69,10 @@ namespace {
 // blurred by a Gaussian of `blur_px`, ground `ground` x (1 - 0.8 S), with
 // the ground above the clip level 1 where `ground` > 1; its strip's profile
 // sampled with clip level 1. `period_scale` != 1 draws the bars at another
-// period than the layout's.
-SampledProfile clipped_triplet(double ground, double blur_px, double period_scale = 1.0) {
+// period than the layout's; `sharpen` > 0 applies an unsharp mask of that
+// strength (radius 2 px) before clipping, as a resampling photograph
+// viewer does: halos the profile model cannot describe.
+SampledProfile clipped_triplet(double ground, double blur_px, double period_scale = 1.0, double sharpen = 0.0) {
   constexpr double w_mm = 0.1, px_per_mm = 40;
   cv::Mat ink(200, 200, CV_32F, cv::Scalar(0));
   for (int y = 0; y < ink.rows; ++y)
@@ -81,7 +83,13 @@ SampledProfile clipped_triplet(double ground, double blur_px, double period_scal
     }
   cv::GaussianBlur(ink, ink, {0, 0}, blur_px);
   cv::Mat lum = ground * (1 - 0.8 * ink);
+  if (sharpen > 0) {
+    cv::Mat smooth;
+    cv::GaussianBlur(lum, smooth, {0, 0}, 2.0);
+    lum = lum + sharpen * (lum - smooth);
+  }
   cv::min(lum, 1.0, lum);
+  cv::max(lum, 0.0, lum);
   const test::TripletLayout triplet = test::vertical_triplet(w_mm);
   const ElementLayout& e = triplet.element;
   const IndexedArtwork artwork(triplet.shapes);
@@ -90,12 +98,12 @@ SampledProfile clipped_triplet(double ground, double blur_px, double period_scal
   return sample_strip(lum, frame, artwork, element_strip(e, so), so, 1.0);
 }
 
-ElementResult graded(const SampledProfile& sp, double px_per_bar) {
+ElementResult graded(const SampledProfile& sp, double px_per_bar, bool read_gap_dips = false) {
   ElementResult r = ElementResult::of(2, 1, BarOrientation::vertical_bars, 5.0, px_per_bar);
   ProfileFitOptions fo;
   fo.contrast = -0.8;
   std::pair<double, double> warm{0, 0};
-  grade_element(r, sp, fo, 0.0, MeasureOptions{}, warm);
+  grade_element(r, sp, fo, 0.0, MeasureOptions{}, warm, {}, false, read_gap_dips);
   return r;
 }
 
@@ -131,6 +139,29 @@ TEST_CASE("clipped: a clipped profile the model misses is clipped, and so is a s
   const SampledProfile most = clipped_triplet(6.0, 1.2);
   REQUIRE(most.pixels_clipped > most.pixels_used / 2);
   CHECK(graded(most, 4.0).status == ElementStatus::clipped);
+}
+
+TEST_CASE("clipped: halos the model misses, yet three clear bars: m read from the dips, chart photographs only") {
+  // Sharpened and clipped (46 % of the strip): the fit with the clipped
+  // bins as bounds cannot measure m.
+  const SampledProfile sp = clipped_triplet(0.9, 0.8, 1.0, 2.0);
+  REQUIRE(sp.pixels_clipped > sp.pixels_used / 50);
+  const ElementResult layout_mode = graded(sp, 4.0);
+  INFO(layout_mode.note);
+  REQUIRE(layout_mode.status == ElementStatus::clipped);
+  const ElementResult r = graded(sp, 4.0, true);
+  INFO(r.note);
+  REQUIRE(r.status == ElementStatus::ok);
+  CHECK(r.m_from_dips);
+  CHECK(r.note.find("model-free") != std::string::npos);
+  // Three sharp bars: their dips are near the full step.
+  CHECK(r.m > 0.6);
+  CHECK(r.m <= 1.0);
+  CHECK(r.m_sigma > 0);
+  CHECK(r.m_sigma < 0.1);
+  // Bars at another period than the layout's stay clipped: no clear dips
+  // where the layout puts the gaps.
+  CHECK(graded(clipped_triplet(1.25, 0.6, 0.6), 2.5, true).status == ElementStatus::clipped);
 }
 
 TEST_CASE("a flat gap: an ok element whose triplet shows two bars is never resolved, and ends the chain") {

@@ -50,6 +50,8 @@ std::optional<int> GapDips::flat_gap() const {
   return std::nullopt;
 }
 
+bool GapDips::three_bars() const { return valid && dip[0] > 5 * sigma[0] && dip[1] > 5 * sigma[1]; }
+
 namespace {
 
 // The dips with the triplet moved by shift_mm.

@@ -53,6 +53,7 @@ TEST_CASE("gap dips: a clean triplet dips at both gaps, either polarity") {
   CHECK(dark.sigma[0] > 0.01 * std::sqrt(2.0 / 6));
   CHECK(dark.sigma[0] < 0.01 * std::sqrt(2.0 / 4) + 1e-12);
   CHECK_FALSE(dark.flat_gap());
+  CHECK(dark.three_bars());
   const double light_gaps[2] = {0.2, 0.2};
   const GapDips light = gap_dips(triplet(0.8, light_gaps, 0.2, 0.01, true), kBarMm, -0.9);
   REQUIRE(light.valid);
@@ -66,6 +67,7 @@ TEST_CASE("gap dips: a gap filled to the bars' level is flat while the other dip
   REQUIRE(g.valid);
   CHECK(g.dip[1] == doctest::Approx(0.01));
   CHECK(g.flat_gap() == std::optional<int>(1));
+  CHECK_FALSE(g.three_bars());
   // The wrong polarity turns every dip negative: the data then show no bars
   // at all, which is the model's business (both dips fail the 5 sigma test).
   CHECK_FALSE(gap_dips(triplet(0.2, gaps, 0.8, 0.01, false), kBarMm, 0.9).flat_gap());
@@ -89,6 +91,7 @@ TEST_CASE("gap dips: two shallow gaps are left to the model") {
   REQUIRE(g.valid);
   CHECK(g.dip[0] < 2 * g.sigma[0]);
   CHECK_FALSE(g.flat_gap());
+  CHECK_FALSE(g.three_bars());
 }
 
 TEST_CASE("gap dips: an empty or clipped window gives no verdict") {

@@ -44,7 +44,11 @@
 // - `read_gap_dips` (chart photographs): an ok element of printed bars
 //   (albedo) whose profile shows one gap flat while the other dips
 //   (profiles/gap_dips.h) gets r.gap_flat and a note; decide_limits never
-//   resolves it. Layout mode keeps the criterion the truth file uses.
+//   resolves it. With it, an element that would be `clipped` because the
+//   fit with its clipped bins as bounds cannot measure m is ok when both
+//   its gaps dip over 5 sigma: m is then pi/4 of the shallower dip over the
+//   level step, model-free and conservative, and r.m_from_dips is set.
+//   Layout mode keeps the criterion the truth file uses.
 // - Returns the seconds spent fitting (0 when no fit ran). Never throws for
 //   a bad profile: every failure is a status.
 

@@ -96,6 +96,9 @@ struct ElementResult {
   // does (profiles/gap_dips.h): two bars are seen, not three, so it is
   // never resolved, whatever m reads.
   bool gap_flat = false;
+  // ok, read from its gaps' dips rather than the profile model: clipped,
+  // and the model misses its bars, yet all three show (element_grading.h).
+  bool m_from_dips = false;
   bool resolved = false;
   bool detectable = false;
   std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say

@@ -33,6 +33,10 @@ struct GapDips {
   // any. Two shallow gaps are the model's business (a blurred element
   // reads a low m), not this check's.
   std::optional<int> flat_gap() const;
+
+  // Both gaps dip clearly (each over 5 sigma): the data show all three
+  // bars where the ideal puts them, whatever a model makes of their shape.
+  bool three_bars() const;
 };
 
 // The dips of the measured triplet of `d`: its three bars are the ideal's
