@@ -367,7 +367,8 @@ void add_measure_options(CLI::App& app, Args& a) {
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "albedo", "shading"}));
   app.add_option("--min-px-per-bar", a.min_px_per_bar,
-                 "Below this many pixels per bar an element is below_sampling_limit (default 1.25: 0.8 of Nyquist)")
+                 "Below this many pixels per bar an element is below_sampling_limit (default 1.25: 0.8 of Nyquist); "
+                 "with --chart, unless its profile plainly shows all three bars")
       ->check(CLI::Range(0.5, 20.0));
   app.add_option("-j,--jobs", a.jobs, "Batch: images measured in parallel (default: all cores)")
       ->check(CLI::Range(0, 256));

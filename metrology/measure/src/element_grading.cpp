@@ -36,6 +36,8 @@ void set_signal(ElementResult& r, const SampledProfile& sp, const ProfileFit& fi
   const double anisotropy = sp.px_per_mm_across > 0 ? sp.px_per_mm_along / sp.px_per_mm_across : 1.0;
   r.bar_pixels = pixels_per_bar(r.px_per_bar, anisotropy);
 }
+// The image's pixel pitch across the bars (mm), 0 if unknown.
+double pixel_mm(const SampledProfile& sp) { return sp.px_per_mm_across > 0 ? 1.0 / sp.px_per_mm_across : 0.0; }
 // "N % of its pixels are clipped (black or saturated)", then `rest`.
 std::string clipped_note(const SampledProfile& sp, const std::string& rest = "") {
   return fmt::format("{:.0f} % of its pixels are clipped (black or saturated){}",
@@ -45,8 +47,8 @@ std::string clipped_note(const SampledProfile& sp, const std::string& rest = "")
 // Marks an ok element whose triplet shows one gap flat (profiles/gap_dips.h)
 // on the profile it was graded on. Printed bars only: a relief's shading
 // signature is a slope, with no dips to read.
-void note_flat_gap(ElementResult& r, const ProfileData& d, double contrast) {
-  const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, contrast);
+void note_flat_gap(ElementResult& r, const SampledProfile& sp, const ProfileData& d, double contrast) {
+  const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, contrast, pixel_mm(sp));
   const std::optional<int> flat = g.flat_gap();
   if (!flat) return;
   r.gap_flat = true;
@@ -68,7 +70,7 @@ void note_flat_gap(ElementResult& r, const ProfileData& d, double contrast) {
 bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileData& d, const ProfileFit& fit,
                      const ProfileFitOptions& fo, double contrast_sigma, const std::string& why) {
   if (!fit.usable || fo.signature != Signature::albedo) return false;
-  const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast);
+  const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast, pixel_mm(sp));
   if (!g.three_bars()) return false;
   const int k = g.dip[0] < g.dip[1] ? 0 : 1;
   const double step = std::abs(rms_step_over_triplet(fo.contrast, fo.contrast_slope_per_mm, r.lp_per_mm));
@@ -84,51 +86,49 @@ bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileDa
                        why, g.dip[0] / g.sigma[0], g.dip[1] / g.sigma[1]);
   return true;
 }
-}  // namespace
-
-double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
-                     const MeasureOptions& options, std::pair<double, double>& warm_lsf,
-                     const ProfilePrepare& prepare, bool model_mismatch, bool read_gap_dips) {
-  r.outline_px = sp.outline_px;
-  r.outline_valid = sp.in_view;
-  if (!sp.in_view) {
-    r.status = ElementStatus::out_of_view;
-    return 0;
+// An element of a chart photograph under the sampling floor counts only
+// where it is plainly seen: ok, with both gaps dipping over 5 sigma
+// (profiles/gap_dips.h), as a person reading the profile would call three
+// bars. Anything else there is below_sampling_limit, as without the fit:
+// near Nyquist a failed or faint fit says more about the sampling phase
+// than about the optics.
+void keep_under_floor_if_seen(ElementResult& r, const SampledProfile& sp, const ProfileData& d,
+                              const ProfileFitOptions& fo, double min_px_per_bar) {
+  const GapDips g = r.status == ElementStatus::ok && fo.signature == Signature::albedo
+                        ? gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast, pixel_mm(sp))
+                        : GapDips{};
+  const std::string floor = fmt::format("{:.2f} px per bar, under the {:.2f} floor", r.px_per_bar, min_px_per_bar);
+  if (g.three_bars()) {
+    r.note = fmt::format("{}: kept because its data show all three bars (dips {:.0f} and {:.0f} sigma){}", floor,
+                         g.dip[0] / g.sigma[0], g.dip[1] / g.sigma[1], r.note.empty() ? "" : "; " + r.note);
+    return;
   }
-  if (r.px_per_bar < options.min_px_per_bar || r.px_per_bar <= 1.0) {
-    // At or beyond Nyquist (<= 1 px per bar) the bars are never resolved,
-    // whatever --min-px-per-bar allows: binning by sub-pixel phase can
-    // still recover the pre-sampling MTF there, but the image shows an
-    // alias, not the bars (docs/CONVENTIONS.md, "Element statuses").
-    r.status = ElementStatus::below_sampling_limit;
-    return 0;
-  }
-  // Clipped bins enter the fit as bounds (ProfileData::bound); with most
-  // of the strip clipped, too little is measured to fit.
-  const bool clipped = sp.pixels_clipped > sp.pixels_used / 50;
-  if (sp.pixels_clipped > sp.pixels_used / 2) {
-    r.status = ElementStatus::clipped;
-    r.note = clipped_note(sp);
-    return 0;
-  }
-  const Stopwatch fit_time;
-  std::tie(fo.start_nu0_per_mm, fo.start_beta) = warm_lsf;
-  const ProfileData prepared = prepare ? prepare(sp.data, fo) : ProfileData{};
-  const ProfileData& data = prepare ? prepared : sp.data;  // no copy without a prepare
+  const ElementResult unmeasured = ElementResult::of(r.group, r.element, r.orientation, r.lp_per_mm, r.px_per_bar);
+  const std::array<Vec2, 4> outline = r.outline_px;
+  r = unmeasured;
+  r.outline_px = outline;
+  r.outline_valid = true;
+  r.status = ElementStatus::below_sampling_limit;
+  r.note = floor + ", and its data do not show all three bars clearly";
+}
+// Fits `data` (the strip's profile, prepared) and grades r by the fit:
+// grade_element's contract from the fit on.
+void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& data, const ProfileFitOptions& fo,
+               double contrast_sigma, const MeasureOptions& options, std::pair<double, double>& warm_lsf,
+               bool model_mismatch, bool read_gap_dips, bool clipped) {
   const ProfileFit fit = fit_profile(data, fo);
   if (fit.usable && !clipped) warm_lsf = {fit.nu0_per_mm, fit.beta};
-  const double seconds = fit_time.seconds();
   if (!fit.usable || (clipped && fit.transfer_sigma(r.lp_per_mm) > options.max_m_sigma)) {
     // What the clipping left does not pin the bars down: clipped, not a
     // failed fit or a faint element.
     if (clipped && read_gap_dips &&
         grade_from_dips(r, sp, data, fit, fo, contrast_sigma, "the rest does not pin the model's m down")) {
       r.note = clipped_note(sp, ": fitted with those bins as bounds; " + r.note);
-      return seconds;
+      return;
     }
     r.status = clipped ? ElementStatus::clipped : ElementStatus::fit_failed;
     if (clipped) r.note = clipped_note(sp, "; the rest does not pin m down");
-    return seconds;
+    return;
   }
   const double m = fit.transfer(r.lp_per_mm);
   double fit_sigma = fit.transfer_sigma(r.lp_per_mm);
@@ -207,10 +207,51 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
                            fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
   }
   if (read_gap_dips && r.status == ElementStatus::ok && fo.signature == Signature::albedo)
-    note_flat_gap(r, data, fo.contrast);
+    note_flat_gap(r, sp, data, fo.contrast);
   if (clipped && r.status == ElementStatus::ok)
     r.note = clipped_note(sp, ": fitted with those bins as bounds" + (r.note.empty() ? "" : "; " + r.note));
-  return seconds;
+}
+
+
+}  // namespace
+
+double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
+                     const MeasureOptions& options, std::pair<double, double>& warm_lsf,
+                     const ProfilePrepare& prepare, bool model_mismatch, bool read_gap_dips) {
+  r.outline_px = sp.outline_px;
+  r.outline_valid = sp.in_view;
+  if (!sp.in_view) {
+    r.status = ElementStatus::out_of_view;
+    return 0;
+  }
+  // Under the floor (a margin against the sampling phase, not a hard
+  // limit) a chart photograph's element is still fitted, and kept only if
+  // its data show all three bars (keep_under_floor_if_seen).
+  const bool under_floor = r.px_per_bar < options.min_px_per_bar;
+  if ((under_floor && !read_gap_dips) || r.px_per_bar <= 1.0) {
+    // At or beyond Nyquist (<= 1 px per bar) the bars are never resolved,
+    // whatever --min-px-per-bar allows: binning by sub-pixel phase can
+    // still recover the pre-sampling MTF there, but the image shows an
+    // alias, not the bars (docs/CONVENTIONS.md, "Element statuses").
+    r.status = ElementStatus::below_sampling_limit;
+    return 0;
+  }
+  // Clipped bins enter the fit as bounds (ProfileData::bound); with most
+  // of the strip clipped, too little is measured to fit.
+  const bool clipped = sp.pixels_clipped > sp.pixels_used / 50;
+  if (sp.pixels_clipped > sp.pixels_used / 2) {
+    r.status = ElementStatus::clipped;
+    r.note = clipped_note(sp);
+    if (under_floor) keep_under_floor_if_seen(r, sp, sp.data, fo, options.min_px_per_bar);
+    return 0;
+  }
+  const Stopwatch fit_time;
+  std::tie(fo.start_nu0_per_mm, fo.start_beta) = warm_lsf;
+  const ProfileData prepared = prepare ? prepare(sp.data, fo) : ProfileData{};
+  const ProfileData& data = prepare ? prepared : sp.data;  // no copy without a prepare
+  grade_fit(r, sp, data, fo, contrast_sigma, options, warm_lsf, model_mismatch, read_gap_dips, clipped);
+  if (under_floor) keep_under_floor_if_seen(r, sp, data, fo, options.min_px_per_bar);
+  return fit_time.seconds();
 }
 
 bool is_unmeasured(const ElementResult& r, bool chart_photograph) {

@@ -65,15 +65,16 @@ TEST_CASE("damaged: not when a finer neighbour is unresolved or within the error
 
 namespace {
 
-// A vertical-bar triplet (bar width 0.1 mm at 40 px/mm: 4 px per bar)
+// A vertical-bar triplet (bar width 0.1 mm, at 40 px/mm 4 px per bar)
 // blurred by a Gaussian of `blur_px`, ground `ground` x (1 - 0.8 S), with
 // the ground above the clip level 1 where `ground` > 1; its strip's profile
 // sampled with clip level 1. `period_scale` != 1 draws the bars at another
 // period than the layout's; `sharpen` > 0 applies an unsharp mask of that
 // strength (radius 2 px) before clipping, as a resampling photograph
 // viewer does: halos the profile model cannot describe.
-SampledProfile clipped_triplet(double ground, double blur_px, double period_scale = 1.0, double sharpen = 0.0) {
-  constexpr double w_mm = 0.1, px_per_mm = 40;
+SampledProfile clipped_triplet(double ground, double blur_px, double period_scale = 1.0, double sharpen = 0.0,
+                               double px_per_mm = 40) {
+  constexpr double w_mm = 0.1;
   cv::Mat ink(200, 200, CV_32F, cv::Scalar(0));
   for (int y = 0; y < ink.rows; ++y)
     for (int x = 0; x < ink.cols; ++x) {
@@ -162,6 +163,25 @@ TEST_CASE("clipped: halos the model misses, yet three clear bars: m read from th
   // Bars at another period than the layout's stay clipped: no clear dips
   // where the layout puts the gaps.
   CHECK(graded(clipped_triplet(1.25, 0.6, 0.6), 2.5, true).status == ElementStatus::clipped);
+}
+
+TEST_CASE("under the sampling floor: a chart photograph's element counts only where its three bars show") {
+  // 1.2 px per bar (12 px/mm), under the 1.25 floor.
+  const SampledProfile sharp = clipped_triplet(0.9, 0.6, 1.0, 0.0, 12);
+  REQUIRE(sharp.pixels_clipped == 0);
+  CHECK(graded(sharp, 1.2).status == ElementStatus::below_sampling_limit);  // layout mode: the floor
+  const ElementResult seen = graded(sharp, 1.2, true);
+  INFO(seen.note);
+  CHECK(seen.status == ElementStatus::ok);
+  CHECK(seen.note.find("kept because its data show all three bars") != std::string::npos);
+  // Blurred to a faint ripple: not called anything, below the floor.
+  const ElementResult faint = graded(clipped_triplet(0.9, 1.5, 1.0, 0.0, 12), 1.2, true);
+  INFO(faint.note);
+  CHECK(faint.status == ElementStatus::below_sampling_limit);
+  CHECK(faint.m == 0);
+  CHECK(faint.note.find("do not show all three bars") != std::string::npos);
+  // At or under 1 px per bar nothing is fitted, chart photograph or not.
+  CHECK(graded(sharp, 1.0, true).status == ElementStatus::below_sampling_limit);
 }
 
 TEST_CASE("a flat gap: an ok element whose triplet shows two bars is never resolved, and ends the chain") {

@@ -55,9 +55,9 @@ bool GapDips::three_bars() const { return valid && dip[0] > 5 * sigma[0] && dip[
 namespace {
 
 // The dips with the triplet moved by shift_mm.
-GapDips dips_at(const ProfileData& d, const double bars_mm[3], double w, double direction, double shift_mm) {
+GapDips dips_at(const ProfileData& d, const double bars_mm[3], double w, double half, double direction,
+                double shift_mm) {
   GapDips out;
-  const double half = kWindowHalfBars * w;
   WindowMean bar[3];
   for (int i = 0; i < 3; ++i) {
     bar[i] = window_mean(d, bars_mm[i] + shift_mm, half, direction > 0 ? 1 : -1);
@@ -76,7 +76,7 @@ GapDips dips_at(const ProfileData& d, const double bars_mm[3], double w, double 
 
 }  // namespace
 
-GapDips gap_dips(const ProfileData& d, double bar_width_mm, double contrast) {
+GapDips gap_dips(const ProfileData& d, double bar_width_mm, double contrast, double pixel_mm) {
   const double w = bar_width_mm;
   std::vector<double> bars;
   for (const IdealBox& b : d.ideal) {
@@ -93,9 +93,10 @@ GapDips gap_dips(const ProfileData& d, double bar_width_mm, double contrast) {
   // placed a third of a bar off (a poor fit's shift) would otherwise read a
   // gap's edge as its middle; one shift for all five windows keeps a gap
   // that is flat from borrowing a dip.
+  const double half = std::max(kWindowHalfBars * w, 0.5 * pixel_mm);
   GapDips best;
   for (int step = -kShiftSteps; step <= kShiftSteps; ++step) {
-    const GapDips g = dips_at(d, bars.data(), w, direction, step * (0.5 * w / kShiftSteps));
+    const GapDips g = dips_at(d, bars.data(), w, half, direction, step * (0.5 * w / kShiftSteps));
     if (g.valid && (!best.valid || g.dip[0] + g.dip[1] > best.dip[0] + best.dip[1])) best = g;
   }
   return best;

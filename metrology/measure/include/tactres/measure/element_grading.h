@@ -14,7 +14,9 @@
 // - Out: r.outline_px / r.outline_valid from the strip; r.status by the
 //   first test that applies, in this order:
 //     out_of_view           the strip is not fully in the image;
-//     below_sampling_limit  px_per_bar < options.min_px_per_bar, or <= 1;
+//     below_sampling_limit  px_per_bar <= 1, or < options.min_px_per_bar
+//                           (with read_gap_dips: unless the fit is ok and
+//                           both gaps dip over 5 sigma, a note says so);
 //     clipped               more than half of the strip's pixels clipped;
 //                           or more than 2 % and the fit with the clipped
 //                           bins as bounds (ProfileData::bound) fails, leaves

@@ -42,7 +42,10 @@ struct GapDips {
 // The dips of the measured triplet of `d`: its three bars are the ideal's
 // boxes of width ~bar_width_mm nearest u = 0 (after any shift of the
 // ideal); `contrast` is the model's level step (profile_fit.h), whose sign
-// with the ideal's says which way the bars go.
-GapDips gap_dips(const ProfileData& d, double bar_width_mm, double contrast);
+// with the ideal's says which way the bars go. `pixel_mm`, the image's
+// pixel pitch across the bars, makes every window at least one pixel wide:
+// at under 2 px per bar a frame aligned with the bars samples the profile
+// once per pixel, and a narrower window could hold no sample at all.
+GapDips gap_dips(const ProfileData& d, double bar_width_mm, double contrast, double pixel_mm = 0);
 
 }  // namespace tactres
