@@ -2,9 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <numbers>
-#include <cstdlib>
 #include <optional>
 #include <tuple>
 
@@ -63,53 +61,73 @@ void note_flat_gap(ElementResult& r, const SampledProfile& sp, const ProfileData
 // resampled photograph's halos, bend its profile beyond the model), yet
 // whose data show all three bars (profiles/gap_dips.h): m is read from the
 // shallower gap's dip, model-free. Near the limit only the bars'
-// fundamental is left, whose crest-to-trough is 4/pi m of the level step;
-// the windows' half-bar width and a sharper triplet's harmonics make the
-// dip read that m low, never high, so the reading is conservative. Printed
-// bars in chart photographs only. Returns whether it graded `r`.
+// fundamental is left, whose crest-to-trough is 4/pi m of the level step
+// |c| B (B the ground beside the triplet). The reading is approximate:
+// the windows' half-bar width reads it ~10 % low, a defocused triplet's
+// reversed third harmonic and the best of the shifted windows read it
+// high; kDipModelSigma covers that, as a type-B term. It grades r only
+// where it is resolved by the criterion and at most 1 (a dip deeper than
+// the step is a halo's overshoot, not the bars): otherwise the element
+// stays unmeasured (clipped), which the limit bridges. Printed bars in
+// chart photographs only. Returns whether it graded `r`.
+constexpr double kDipModelSigma = 0.15;  // relative
 bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileData& d, const ProfileFit& fit,
-                     const ProfileFitOptions& fo, double contrast_sigma, const std::string& why) {
+                     const ProfileFitOptions& fo, double contrast_sigma, const MeasureOptions& options,
+                     const std::string& why) {
   if (!fit.usable || fo.signature != Signature::albedo) return false;
   const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast, pixel_mm(sp));
   if (!g.three_bars()) return false;
   const int k = g.dip[0] < g.dip[1] ? 0 : 1;
-  const double step = std::abs(rms_step_over_triplet(fo.contrast, fo.contrast_slope_per_mm, r.lp_per_mm));
+  const double c = std::abs(rms_step_over_triplet(fo.contrast, fo.contrast_slope_per_mm, r.lp_per_mm));
+  // The ground at the triplet: the data's, or the fit's B0 where that is
+  // higher (the larger step, the lower m). A fit that misses can put B0
+  // anywhere; a clipped ground reads the clip level, under the true one.
+  const double step = c * std::max(fit.b0, g.ground);
+  if (!std::isfinite(step) || step <= 0) return false;
   const double m = std::numbers::pi / 4 * g.dip[k] / step;
-  r.m = std::min(m, 1.0);
-  r.m_sigma = std::hypot(std::numbers::pi / 4 * g.sigma[k] / step, m * contrast_sigma / step);
+  const double m_sigma =
+      std::hypot(std::numbers::pi / 4 * g.sigma[k] / step, m * contrast_sigma / c, kDipModelSigma * m);
+  if (!std::isfinite(m) || !std::isfinite(m_sigma) || m > 1 ||
+      !is_resolved({r.group, r.element, r.lp_per_mm, m, m_sigma, true}, options.criterion))
+    return false;
+  r.m = m;
+  r.m_sigma = std::max(m_sigma, 1e-6);
+  r.beta = 0;
   r.chi2_reduced = fit.chi2_reduced;
   r.m_from_dips = true;
   r.status = ElementStatus::ok;
   set_signal(r, sp, fit, fo);
   r.note = fmt::format("{}, but both gaps dip ({:.0f} and {:.0f} sigma): m is read model-free, pi/4 of the shallower "
-                       "dip over the level step (a conservative reading)",
-                       why, g.dip[0] / g.sigma[0], g.dip[1] / g.sigma[1]);
+                       "dip over the level step (+-{:.0f} % for that approximation)",
+                       why, g.dip[0] / g.sigma[0], g.dip[1] / g.sigma[1], 100 * kDipModelSigma);
   return true;
 }
 // An element of a chart photograph under the sampling floor counts only
-// where it is plainly seen: ok, with both gaps dipping over 5 sigma
-// (profiles/gap_dips.h), as a person reading the profile would call three
-// bars. Anything else there is below_sampling_limit, as without the fit:
-// near Nyquist a failed or faint fit says more about the sampling phase
-// than about the optics.
-void keep_under_floor_if_seen(ElementResult& r, const SampledProfile& sp, const ProfileData& d,
+// where it is plainly seen: ok (by its fit, or by its dips when clipped),
+// with both gaps dipping over 5 sigma (profiles/gap_dips.h), as a person
+// reading the profile would call three bars. Anything else there is
+// below_sampling_limit, as without the fit, its grading's reason kept in
+// the note: near Nyquist a failed or faint fit says more about the
+// sampling phase than about the optics. Returns whether r was kept.
+bool keep_under_floor_if_seen(ElementResult& r, const SampledProfile& sp, const ProfileData& d,
                               const ProfileFitOptions& fo, double min_px_per_bar) {
-  const GapDips g = r.status == ElementStatus::ok && fo.signature == Signature::albedo
-                        ? gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast, pixel_mm(sp))
-                        : GapDips{};
+  const bool checked = r.status == ElementStatus::ok && fo.signature == Signature::albedo;
+  const GapDips g = checked ? gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast, pixel_mm(sp)) : GapDips{};
   const std::string floor = fmt::format("{:.2f} px per bar, under the {:.2f} floor", r.px_per_bar, min_px_per_bar);
   if (g.three_bars()) {
-    r.note = fmt::format("{}: kept because its data show all three bars (dips {:.0f} and {:.0f} sigma){}", floor,
-                         g.dip[0] / g.sigma[0], g.dip[1] / g.sigma[1], r.note.empty() ? "" : "; " + r.note);
-    return;
+    r.note = fmt::format("{}: kept because its data show all three bars{}", floor, r.note.empty() ? "" : "; " + r.note);
+    return true;
   }
-  const ElementResult unmeasured = ElementResult::of(r.group, r.element, r.orientation, r.lp_per_mm, r.px_per_bar);
+  const std::string why = !checked ? fmt::format(", and it is not measured ({}{}{})", to_string(r.status),
+                                                 r.note.empty() ? "" : ": ", r.note)
+                                   : ", and its data do not show all three bars clearly";
   const std::array<Vec2, 4> outline = r.outline_px;
-  r = unmeasured;
+  r = ElementResult::of(r.group, r.element, r.orientation, r.lp_per_mm, r.px_per_bar);
   r.outline_px = outline;
   r.outline_valid = true;
   r.status = ElementStatus::below_sampling_limit;
-  r.note = floor + ", and its data do not show all three bars clearly";
+  r.note = floor + why;
+  return false;
 }
 // Fits `data` (the strip's profile, prepared) and grades r by the fit:
 // grade_element's contract from the fit on.
@@ -122,7 +140,7 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     // What the clipping left does not pin the bars down: clipped, not a
     // failed fit or a faint element.
     if (clipped && read_gap_dips &&
-        grade_from_dips(r, sp, data, fit, fo, contrast_sigma, "the rest does not pin the model's m down")) {
+        grade_from_dips(r, sp, data, fit, fo, contrast_sigma, options, "the rest does not pin the model's m down")) {
       r.note = clipped_note(sp, ": fitted with those bins as bounds; " + r.note);
       return;
     }
@@ -161,18 +179,18 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     // clipping distorted beyond the model (a resampled photograph's
     // overshoot at the clip level): such an element stays `clipped`, as
     // it was before clipped bins were fitted as bounds.
-    if (clipped && read_gap_dips &&
-        grade_from_dips(r, sp, data, fit, fo, contrast_sigma,
-                        fmt::format("the model misses the data (reduced chi^2 {:.3g})", fit.chi2_reduced))) {
-    } else if (clipped) {
+    // A clipped one whose three bars show anyway is read from its dips.
+    if (!clipped) {
+      r.status = ElementStatus::aliased;
+      r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
+                           r.px_per_bar, fit.chi2_reduced);
+    } else if (!read_gap_dips ||
+               !grade_from_dips(r, sp, data, fit, fo, contrast_sigma, options,
+                                fmt::format("the model misses the data (reduced chi^2 {:.3g})", fit.chi2_reduced))) {
       r.status = ElementStatus::clipped;
       r.note = clipped_note(sp, fmt::format("; the fit with them as bounds misses the data (reduced chi^2 {:.3g}, "
                                             "misfit as large as the bars' signal)",
                                             fit.chi2_reduced));
-    } else {
-      r.status = ElementStatus::aliased;
-      r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
-                           r.px_per_bar, fit.chi2_reduced);
     }
   } else if (m < 1e-4 && m_sigma < 1e-4) {
     // The fit sits on its bound (no modulation left): there the covariance
@@ -212,7 +230,6 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     r.note = clipped_note(sp, ": fitted with those bins as bounds" + (r.note.empty() ? "" : "; " + r.note));
 }
 
-
 }  // namespace
 
 double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptions fo, double contrast_sigma,
@@ -249,8 +266,10 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
   std::tie(fo.start_nu0_per_mm, fo.start_beta) = warm_lsf;
   const ProfileData prepared = prepare ? prepare(sp.data, fo) : ProfileData{};
   const ProfileData& data = prepare ? prepared : sp.data;  // no copy without a prepare
+  const std::pair<double, double> warm_before = warm_lsf;
   grade_fit(r, sp, data, fo, contrast_sigma, options, warm_lsf, model_mismatch, read_gap_dips, clipped);
-  if (under_floor) keep_under_floor_if_seen(r, sp, data, fo, options.min_px_per_bar);
+  // A fit thrown away under the floor does not start the next one.
+  if (under_floor && !keep_under_floor_if_seen(r, sp, data, fo, options.min_px_per_bar)) warm_lsf = warm_before;
   return fit_time.seconds();
 }
 

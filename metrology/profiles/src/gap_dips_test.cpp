@@ -54,6 +54,7 @@ TEST_CASE("gap dips: a clean triplet dips at both gaps, either polarity") {
   CHECK(dark.sigma[0] < 0.01 * std::sqrt(2.0 / 4) + 1e-12);
   CHECK_FALSE(dark.flat_gap());
   CHECK(dark.three_bars());
+  CHECK(dark.ground == doctest::Approx(0.8));  // beside the triplet
   const double light_gaps[2] = {0.2, 0.2};
   const GapDips light = gap_dips(triplet(0.8, light_gaps, 0.2, 0.01, true), kBarMm, -0.9);
   REQUIRE(light.valid);
@@ -113,6 +114,22 @@ TEST_CASE("gap dips: an empty or clipped window gives no verdict") {
   CHECK(gap_dips(clipped, kBarMm, -0.9).flat_gap() == std::optional<int>(1));
   // Without three bars of the given width the triplet is not found.
   CHECK_FALSE(gap_dips(d, 2 * kBarMm, -0.9).valid);
+}
+
+TEST_CASE("gap dips: at under 2 px per bar the windows widen to a pixel, so a frame aligned with the bars is read") {
+  // One sample per 0.08 mm pixel (1.25 px per bar), every pixel at the same
+  // phase: half-bar windows miss a gap or a bar at every shift.
+  const double gaps[2] = {0.8, 0.8};
+  ProfileData d = triplet(0.2, gaps, 0.8, 0.01, false);
+  for (int b = 0; b < d.bin_count; ++b)
+    if (b % 8 != 0) d.count[b] = 0;
+  CHECK_FALSE(gap_dips(d, kBarMm, -0.9).valid);
+  const GapDips g = gap_dips(d, kBarMm, -0.9, 0.08);
+  CHECK(g.valid);
+  // At 2 px per bar or more the pixel changes nothing.
+  const ProfileData dense = triplet(0.2, gaps, 0.8, 0.01, false);
+  CHECK(gap_dips(dense, kBarMm, -0.9, 0.05).dip[0] == doctest::Approx(gap_dips(dense, kBarMm, -0.9).dip[0]));
+  CHECK(gap_dips(dense, kBarMm, -0.9, 0.05).sigma[0] == doctest::Approx(gap_dips(dense, kBarMm, -0.9).sigma[0]));
 }
 
 }  // namespace tactres

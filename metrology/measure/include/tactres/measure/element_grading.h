@@ -48,8 +48,9 @@
 //   (profiles/gap_dips.h) gets r.gap_flat and a note; decide_limits never
 //   resolves it. With it, an element that would be `clipped` because the
 //   fit with its clipped bins as bounds cannot measure m is ok when both
-//   its gaps dip over 5 sigma: m is then pi/4 of the shallower dip over the
-//   level step, model-free and conservative, and r.m_from_dips is set.
+//   its gaps dip over 5 sigma and resolve it by options.criterion: m is
+//   then pi/4 of the shallower dip over the level step, model-free, with
+//   a 15 % type-B term in m_sigma, and r.m_from_dips is set.
 //   Layout mode keeps the criterion the truth file uses.
 // - Returns the seconds spent fitting (0 when no fit ran). Never throws for
 //   a bad profile: every failure is a status.

@@ -54,7 +54,8 @@ struct MeasureOptions {
   double bin_px_for(double px_per_bar) const;
   Criterion criterion;
   DetectabilityCriterion detectability;
-  double min_px_per_bar = 1.25;     // below: below_sampling_limit (Kell factor 0.8 of Nyquist)
+  double min_px_per_bar = 1.25;     // below: below_sampling_limit (Kell factor 0.8 of Nyquist); on a chart
+                                    // photograph unless its three bars plainly show (element_grading.h)
   double aliasing_chi2 = 16;        // reduced chi^2 above which a fine element is aliased
   double max_m_sigma = 0.25;        // above: low_signal
   double max_patch_chi2 = 50;       // above: the capture does not match the layout
@@ -97,7 +98,8 @@ struct ElementResult {
   // never resolved, whatever m reads.
   bool gap_flat = false;
   // ok, read from its gaps' dips rather than the profile model: clipped,
-  // and the model misses its bars, yet all three show (element_grading.h).
+  // and the model cannot measure its bars, yet all three show and resolve
+  // it (element_grading.h).
   bool m_from_dips = false;
   bool resolved = false;
   bool detectable = false;
