@@ -31,24 +31,41 @@ ProfileSamplingOptions sampling_for(const MeasureOptions& mo, double px_per_bar)
 
 // Frames, centred on each pattern, then scaled by the profile model on the
 // coarse patterns, smoothed over the chart (chart_frames.h).
+//
+// The scale samples: per orientation the kScaleSamples coarsest patterns
+// of at least 4 px per bar. A scale fit costs three profile fits (a fifth
+// of chart mode when every coarse pattern took part); the coarsest pin the
+// scale down best (its relative error falls with the bars' size in
+// pixels), and on the chart they lie outermost, spanning the plane the
+// field fits.
+constexpr size_t kScaleSamples = 8;
 std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vector<PatternRef>& refs,
                                          const chart::PlacementStore& store, const MeasureOptions& mo) {
   std::vector<PatternFrame> frames;
-  std::vector<std::pair<Vec2, double>> scale_samples[2];  // [vertical bars]
-  for (const PatternRef& r : refs) {
+  std::vector<ProfileSamplingOptions> sampling;
+  std::vector<size_t> coarse[2];  // [vertical bars]: indices into refs
+  for (size_t i = 0; i < refs.size(); ++i) {
+    const PatternRef& r = refs[i];
     const double px_per_bar = 0.5 * D.patterns[r.pattern].period_px;
     const PatternFrame detected = chart::frame_of(D.patterns[r.pattern], r.orientation, r.lp_per_mm);
-    const ProfileSamplingOptions so = store.fitted_in_view(r, detected, sampling_for(mo, px_per_bar));
-    const PatternFrame f = D.patterns[r.pattern].predicted ? detected : store.recentre(r, detected, so);
-    frames.push_back(f);
-    if (px_per_bar < 4 || r.lone) continue;
-    const SampledProfile p = store.sample(r, f, so);
-    if (!p.in_view) continue;
-    ProfileFitOptions fo;
-    fo.fit_contrast = true;
-    fo.fit_shape = false;
-    if (const auto a = chart::fit_scale(p.data, fo))
-      scale_samples[r.orientation == BarOrientation::vertical_bars].push_back({f.center_px, f.px_per_mm * *a});
+    sampling.push_back(store.fitted_in_view(r, detected, sampling_for(mo, px_per_bar)));
+    frames.push_back(D.patterns[r.pattern].predicted ? detected : store.recentre(r, detected, sampling.back()));
+    if (px_per_bar >= 4 && !r.lone) coarse[r.orientation == BarOrientation::vertical_bars].push_back(i);
+  }
+  std::vector<std::pair<Vec2, double>> scale_samples[2];
+  for (int o = 0; o < 2; ++o) {
+    std::stable_sort(coarse[o].begin(), coarse[o].end(), [&](size_t a, size_t b) {
+      return D.patterns[refs[a].pattern].period_px > D.patterns[refs[b].pattern].period_px;
+    });
+    for (size_t k = 0; k < std::min(kScaleSamples, coarse[o].size()); ++k) {
+      const size_t i = coarse[o][k];
+      const SampledProfile p = store.sample(refs[i], frames[i], sampling[i]);
+      if (!p.in_view) continue;
+      ProfileFitOptions fo;
+      fo.fit_contrast = true;
+      fo.fit_shape = false;
+      if (const auto a = chart::fit_scale(p.data, fo)) scale_samples[o].push_back({frames[i].center_px, frames[i].px_per_mm * *a});
+    }
   }
   chart::ScaleField field[2] = {chart::fit_scale_field(scale_samples[0]), chart::fit_scale_field(scale_samples[1])};
   if (!field[0].valid) field[0] = field[1];
