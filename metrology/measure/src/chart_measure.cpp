@@ -49,7 +49,7 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
     const double px_per_bar = 0.5 * D.patterns[r.pattern].period_px;
     const PatternFrame detected = chart::frame_of(D.patterns[r.pattern], r.orientation, r.lp_per_mm);
     sampling.push_back(store.fitted_in_view(r, detected, sampling_for(mo, px_per_bar)));
-    frames.push_back(D.patterns[r.pattern].predicted ? detected : store.recentre(r, detected, sampling.back()));
+    frames.push_back(detected);
     if (px_per_bar >= 4 && !r.lone) coarse[r.orientation == BarOrientation::vertical_bars].push_back(i);
   }
   std::vector<std::pair<Vec2, double>> scale_samples[2];
@@ -59,6 +59,8 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
     });
     for (size_t k = 0; k < std::min(kScaleSamples, coarse[o].size()); ++k) {
       const size_t i = coarse[o][k];
+      // Centred first (pattern_jobs centres every pattern at the field's scale).
+      if (!D.patterns[refs[i].pattern].predicted) frames[i] = store.recentre(refs[i], frames[i], sampling[i]);
       const SampledProfile p = store.sample(refs[i], frames[i], sampling[i]);
       if (!p.in_view) continue;
       ProfileFitOptions fo;
