@@ -67,22 +67,15 @@ void pool_noise(std::vector<ElementResult>& elements, size_t first, const std::v
     r.cnr_sigma = r.cnr * std::hypot(r.m_sigma / std::max(r.m, 1e-9), noise_rel);
   }
 }
-// Whether placement `alt` replaces `r`: the one the model fits better
-// (lower reduced chi^2; an unfitted one never wins). A model-free reading
-// (ElementResult::m_from_dips) carries the chi^2 of a fit that could not
-// measure m, so chi^2 cannot rank it against a fit that did: an ok fit
-// wins over it, and it wins over any other grade.
-bool replaces(const ElementResult& alt, const ElementResult& r) {
+}  // namespace
+
+bool placement_replaces(const ElementResult& alt, const ElementResult& r) {
   if (alt.m_from_dips != r.m_from_dips) {
-    const ElementResult& dips = alt.m_from_dips ? alt : r;
-    const ElementResult& other = alt.m_from_dips ? r : alt;
-    const bool other_wins = other.status == ElementStatus::ok;
-    return &(other_wins ? other : dips) == &alt;
+    const bool fit_wins = (alt.m_from_dips ? r : alt).status == ElementStatus::ok;
+    return alt.m_from_dips ? !fit_wins : fit_wins;
   }
   return alt.chi2_reduced > 0 && (r.chi2_reduced <= 0 || alt.chi2_reduced < r.chi2_reduced);
 }
-
-}  // namespace
 
 double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
                   const GradingContext& context, std::vector<ElementResult>& elements,
@@ -150,7 +143,7 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
       std::pair<double, double> alt_warm = warm_before;
       fit_seconds += grade_element(alt, profiles[j][k], fo, step.contrast_sigma, context.options, alt_warm,
                                    job.prepare, context.model_mismatch, context.read_gap_dips);
-      if (replaces(alt, r)) {
+      if (placement_replaces(alt, r)) {
         r = alt;
         warm = alt_warm;
         graded_on = &profiles[j][k];

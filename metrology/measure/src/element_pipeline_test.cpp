@@ -63,3 +63,25 @@ TEST_CASE("grade_jobs: each placement is graded from scratch, and the better fit
   CHECK(both[0].note.empty());
   CHECK_FALSE(both[0].m_undetermined);
 }
+
+TEST_CASE("placement_replaces: the better fit, and a fit's own m over a model-free one") {
+  auto graded = [](ElementStatus s, double chi2, bool from_dips) {
+    ElementResult r = ElementResult::of(2, 1, BarOrientation::vertical_bars, 5.0, 4.0);
+    r.status = s;
+    r.chi2_reduced = chi2;
+    r.m_from_dips = from_dips;
+    return r;
+  };
+  const ElementResult fit_ok = graded(ElementStatus::ok, 40, false), fit_ok_better = graded(ElementStatus::ok, 3, false);
+  const ElementResult dips = graded(ElementStatus::ok, 2, true), clipped = graded(ElementStatus::clipped, 1, false);
+  const ElementResult unfitted = graded(ElementStatus::fit_failed, 0, false);
+  CHECK(placement_replaces(fit_ok_better, fit_ok));
+  CHECK_FALSE(placement_replaces(fit_ok, fit_ok_better));
+  CHECK_FALSE(placement_replaces(unfitted, fit_ok));
+  CHECK(placement_replaces(fit_ok, unfitted));
+  // chi^2 does not rank a model-free reading against a fit's own.
+  CHECK(placement_replaces(fit_ok, dips));
+  CHECK_FALSE(placement_replaces(dips, fit_ok));
+  CHECK(placement_replaces(dips, clipped));
+  CHECK_FALSE(placement_replaces(clipped, dips));
+}

@@ -69,6 +69,14 @@ struct GradingContext {
   const std::vector<const SampledProfile*>* noise_pool = nullptr;
 };
 
+// Whether a job's placement graded `alt` replaces the one graded `r`: the
+// one the model fits better (lower reduced chi^2; an unfitted one, chi^2
+// 0, never wins). A model-free reading (ElementResult::m_from_dips)
+// carries the chi^2 of a fit that could not measure m, so chi^2 cannot
+// rank it against a fit that did: an ok fit wins over it, and it wins over
+// any other grade.
+bool placement_replaces(const ElementResult& alt, const ElementResult& r);
+
 // Grades every job from its sampled placements (sample_jobs) into
 // `elements`, in job order, warm-starting each orientation's fit from the
 // previous good one (jobs run coarse to fine). An orientation whose level
