@@ -29,11 +29,12 @@ ProfileSamplingOptions sampling_for(const MeasureOptions& mo, double px_per_bar)
   return so;
 }
 
-// Frames, centred on each pattern, then scaled by the profile model on the
-// coarse patterns, smoothed over the chart (chart_frames.h).
+// Frames where each pattern was found, scaled by the profile model on the
+// coarse patterns, smoothed over the chart (chart_frames.h); pattern_jobs
+// centres them.
 //
 // The scale samples: per orientation the kScaleSamples coarsest patterns
-// of at least 4 px per bar. A scale fit costs three profile fits (a fifth
+// of at least 4 px per bar whose scale fit succeeds. A scale fit costs three profile fits (a fifth
 // of chart mode when every coarse pattern took part); the coarsest pin the
 // scale down best (its relative error falls with the bars' size in
 // pixels), and on the chart they lie outermost, spanning the plane the
@@ -57,10 +58,14 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
     std::stable_sort(coarse[o].begin(), coarse[o].end(), [&](size_t a, size_t b) {
       return D.patterns[refs[a].pattern].period_px > D.patterns[refs[b].pattern].period_px;
     });
-    for (size_t k = 0; k < std::min(kScaleSamples, coarse[o].size()); ++k) {
+    for (size_t k = 0; k < coarse[o].size() && scale_samples[o].size() < kScaleSamples; ++k) {
       const size_t i = coarse[o][k];
-      // Centred first (pattern_jobs centres every pattern at the field's scale).
-      if (!D.patterns[refs[i].pattern].predicted) frames[i] = store.recentre(refs[i], frames[i], sampling[i]);
+      // Centred first, its margin fitted again (pattern_jobs centres every
+      // pattern at the field's scale).
+      if (!D.patterns[refs[i].pattern].predicted) {
+        frames[i] = store.recentre(refs[i], frames[i], sampling[i]);
+        sampling[i] = store.fitted_in_view(refs[i], frames[i], sampling[i]);
+      }
       const SampledProfile p = store.sample(refs[i], frames[i], sampling[i]);
       if (!p.in_view) continue;
       ProfileFitOptions fo;

@@ -62,34 +62,31 @@ void note_flat_gap(ElementResult& r, const SampledProfile& sp, const ProfileData
 // whose data show all three bars (profiles/gap_dips.h): m is read from the
 // shallower gap's dip, model-free. Near the limit only the bars'
 // fundamental is left, whose crest-to-trough is 4/pi m of the level step
-// |c| B (B the ground beside the triplet). The reading is approximate:
-// the windows' half-bar width reads it ~10 % low, a defocused triplet's
+// |c| B, B the unclipped ground beside the triplet or the fit's B0 if
+// higher (the larger step, the lower m). The reading is approximate: the
+// windows' half-bar width reads it ~10 % low, a defocused triplet's
 // reversed third harmonic and the best of the shifted windows read it
-// high; kDipModelSigma covers that, as a type-B term. It grades r only
-// where it is resolved by the criterion and at most 1 (a dip deeper than
-// the step is a halo's overshoot, not the bars): otherwise the element
-// stays unmeasured (clipped), which the limit bridges. Printed bars in
-// chart photographs only. Returns whether it graded `r`.
+// high; kDipModelSigma covers that, as a type-B term. It is graded like a
+// fit's m (resolved or not by the criterion, so an unresolved one ends the
+// chain). Where the ground beside the triplet is all clipped (the step
+// unknown) or m comes out above 1 (a halo's overshoot, not the bars), the
+// element stays unmeasured (clipped), which the limit bridges. Printed
+// bars in chart photographs only. Returns whether it graded `r`.
 constexpr double kDipModelSigma = 0.15;  // relative
 bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileData& d, const ProfileFit& fit,
-                     const ProfileFitOptions& fo, double contrast_sigma, const MeasureOptions& options,
-                     const std::string& why) {
+                     const ProfileFitOptions& fo, double contrast_sigma, const std::string& why) {
   if (!fit.usable || fo.signature != Signature::albedo) return false;
   const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast, pixel_mm(sp));
   if (!g.three_bars()) return false;
   const int k = g.dip[0] < g.dip[1] ? 0 : 1;
   const double c = std::abs(rms_step_over_triplet(fo.contrast, fo.contrast_slope_per_mm, r.lp_per_mm));
-  // The ground at the triplet: the data's, or the fit's B0 where that is
-  // higher (the larger step, the lower m). A fit that misses can put B0
-  // anywhere; a clipped ground reads the clip level, under the true one.
+  if (!(g.ground > 0)) return false;
   const double step = c * std::max(fit.b0, g.ground);
   if (!std::isfinite(step) || step <= 0) return false;
   const double m = std::numbers::pi / 4 * g.dip[k] / step;
   const double m_sigma =
       std::hypot(std::numbers::pi / 4 * g.sigma[k] / step, m * contrast_sigma / c, kDipModelSigma * m);
-  if (!std::isfinite(m) || !std::isfinite(m_sigma) || m > 1 ||
-      !is_resolved({r.group, r.element, r.lp_per_mm, m, m_sigma, true}, options.criterion))
-    return false;
+  if (!std::isfinite(m) || !std::isfinite(m_sigma) || m > 1) return false;
   r.m = m;
   r.m_sigma = std::max(m_sigma, 1e-6);
   r.beta = 0;
@@ -140,7 +137,7 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     // What the clipping left does not pin the bars down: clipped, not a
     // failed fit or a faint element.
     if (clipped && read_gap_dips &&
-        grade_from_dips(r, sp, data, fit, fo, contrast_sigma, options, "the rest does not pin the model's m down")) {
+        grade_from_dips(r, sp, data, fit, fo, contrast_sigma, "the rest does not pin the model's m down")) {
       r.note = clipped_note(sp, ": fitted with those bins as bounds; " + r.note);
       return;
     }
@@ -185,7 +182,7 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
       r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
                            r.px_per_bar, fit.chi2_reduced);
     } else if (!read_gap_dips ||
-               !grade_from_dips(r, sp, data, fit, fo, contrast_sigma, options,
+               !grade_from_dips(r, sp, data, fit, fo, contrast_sigma,
                                 fmt::format("the model misses the data (reduced chi^2 {:.3g})", fit.chi2_reduced))) {
       r.status = ElementStatus::clipped;
       r.note = clipped_note(sp, fmt::format("; the fit with them as bounds misses the data (reduced chi^2 {:.3g}, "

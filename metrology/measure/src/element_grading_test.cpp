@@ -1,6 +1,7 @@
 #include "tactres/measure/element_grading.h"
 
 #include <cmath>
+#include <numbers>
 
 #include <doctest/doctest.h>
 #include <opencv2/imgproc.hpp>
@@ -134,11 +135,12 @@ TEST_CASE("clipped: a clipped profile the model misses is clipped, and so is a s
 }
 
 // A box-shaped vertical-bar triplet as a profile (bars 0.1 mm on 0.01 mm
-// bins, 2.5 px per bar): bars at 0.05, gaps at 0.15, a ground of 0.9
-// clipped at saturation (bounds), all times `scale`. Sharp bars between
-// gaps far under the ground: no blur of the model makes that (a resampled
+// bins, 2.5 px per bar): bars at 0.05, gaps at `gap`, a ground of 0.9,
+// clipped at saturation (bounds) beyond 0.42 mm and, with `ground_clipped`,
+// also beside the triplet; all times `scale`. Sharp bars between gaps far
+// under the ground: no blur of the model makes that (a resampled
 // photograph's halos did, dev_14), so its fit misses the data.
-SampledProfile halo_triplet(double scale) {
+SampledProfile halo_triplet(double scale, double gap = 0.15, bool ground_clipped = false) {
   SampledProfile sp;
   ProfileData& d = sp.data;
   d.bin_mm = 0.01;
@@ -150,8 +152,8 @@ SampledProfile halo_triplet(double scale) {
   for (int b = 0; b < d.bin_count; ++b) {
     const double u = d.bin_center_mm(b);
     double v = 0.9;
-    signed char bound = 1;
-    if (std::abs(u) < 0.25) v = 0.15, bound = 0;
+    signed char bound = std::abs(u) > 0.42 || ground_clipped ? 1 : 0;
+    if (std::abs(u) < 0.25) v = gap, bound = 0;
     for (int i = 0; i < 3; ++i)
       if (std::abs(u - (i - 1) * 0.2) < 0.05) v = 0.05;
     d.value.push_back(scale * v);
@@ -163,7 +165,7 @@ SampledProfile halo_triplet(double scale) {
   sp.in_view = true;
   sp.px_per_mm_across = sp.px_per_mm_along = 25;
   sp.pixels_used = 400;
-  sp.pixels_clipped = 100;
+  sp.pixels_clipped = ground_clipped ? 100 : 60;
   return sp;
 }
 
@@ -178,16 +180,22 @@ TEST_CASE("clipped: a misfit with three clear bars is read from its dips, chart 
   CHECK(r.m_from_dips);
   CHECK(r.beta == 0);
   CHECK(r.note.find("model-free") != std::string::npos);
-  // Dips of 0.10 against a step of 0.8 of the fitted ground B0 (0.7-0.9
-  // in a fit that misses): m = pi/4 0.10 / (0.8 B0), 0.11-0.14, with the
-  // 15 % type-B term in its sigma.
-  CHECK(r.m > 0.1);
-  CHECK(r.m < 0.15);
-  CHECK(r.m_sigma >= 0.15 * r.m);
+  // Dips of 0.10 against a step of 0.8 of the ground, 0.9 beside the
+  // triplet (or the fit's B0 if higher): m = pi/4 0.10 / 0.72 at most.
+  const double m_ground = std::numbers::pi / 4 * 0.10 / (0.8 * 0.9);
+  CHECK(r.m <= m_ground + 1e-9);
+  CHECK(r.m > 0.8 * m_ground);
   // The level step scales with the light: half the light, the same m.
   const ElementResult dim = graded(halo_triplet(0.5), 2.5, true);
   REQUIRE(dim.status == ElementStatus::ok);
   CHECK(dim.m == doctest::Approx(r.m).epsilon(0.02));
+  // Shallow dips are read too, and are unresolved (they end the chain).
+  const ElementResult shallow = graded(halo_triplet(1.0, 0.09), 2.5, true);
+  INFO(shallow.note);
+  CHECK(shallow.status == ElementStatus::ok);
+  CHECK(shallow.m < 0.1);
+  // A ground clipped beside the triplet leaves the step unknown: clipped.
+  CHECK(graded(halo_triplet(1.0, 0.15, true), 2.5, true).status == ElementStatus::clipped);
   // Bars at another period than the layout's are not read from dips: no
   // clear dips where the layout puts the gaps.
   const SampledProfile other = clipped_triplet(1.1, 0.6, 0.6);
@@ -213,6 +221,7 @@ TEST_CASE("under the sampling floor: a chart photograph's element counts only wh
   CHECK(faint.status == ElementStatus::below_sampling_limit);
   CHECK(faint.m == 0);
   CHECK(faint.note.find("under the 1.25 floor") != std::string::npos);
+  CHECK(faint.note.find("kept") == std::string::npos);
   // At or under 1 px per bar nothing is fitted, chart photograph or not.
   CHECK(graded(sharp, 1.0, true).status == ElementStatus::below_sampling_limit);
 }

@@ -136,7 +136,7 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
     const SampledProfile* graded_on = &profiles[j].front();
     fit_seconds += grade_element(r, profiles[j].front(), fo, step.contrast_sigma, context.options, warm, job.prepare,
                                  context.model_mismatch, context.read_gap_dips);
-    // Another placement replaces the first only when the model fits it better.
+    // Another placement replaces the first where placement_replaces says so.
     for (size_t k = 1; k < profiles[j].size(); ++k) {
       if (!profiles[j][k].in_view) continue;
       ElementResult alt = ungraded;

@@ -25,15 +25,12 @@ struct WindowMean {
 // its standard error. A clipped bin (ProfileData::bound) only bounds the
 // light: it counts where that bound errs towards a shallower dip (`safe`,
 // e.g. +1 for a bright bar clipped at saturation, which was at least that
-// bright), and is left out otherwise; with kAnyBound every clipped bin
-// counts at its value (2, both kinds of clipping, never).
-constexpr int kAnyBound = 3;
+// bright), and is left out otherwise (safe_bound 0: every clipped bin).
 WindowMean window_mean(const ProfileData& d, double center_mm, double half_mm, int safe_bound) {
   double n = 0, sum = 0, var = 0;
   for (int b = d.fit_begin; b < d.fit_end; ++b) {
     const int bound = d.bound_at(b);
-    const bool counts = bound == 0 || bound == safe_bound || (safe_bound == kAnyBound && bound != 2);
-    if (d.count[b] <= 0 || !counts || !std::isfinite(d.value[b])) continue;
+    if (d.count[b] <= 0 || (bound != 0 && bound != safe_bound) || !std::isfinite(d.value[b])) continue;
     if (std::abs(d.u_mean_mm[b] - center_mm) >= half_mm) continue;
     const double c = d.count[b];
     n += c;
@@ -73,10 +70,11 @@ GapDips dips_at(const ProfileData& d, const double bars_mm[3], double w, double 
     out.dip[k] = direction * (weaker.mean - gap.mean);
     out.sigma[k] = std::hypot(weaker.se, gap.se);
   }
-  // The ground, one bar width beyond each outer bar.
+  // The ground beyond each outer bar, from its unclipped bins: a clipped
+  // one only bounds it.
   double n = 0, sum = 0;
   for (const int side : {-1, 1}) {
-    const WindowMean g = window_mean(d, bars_mm[side < 0 ? 0 : 2] + shift_mm + side * 1.5 * w, 0.5 * w, kAnyBound);
+    const WindowMean g = window_mean(d, bars_mm[side < 0 ? 0 : 2] + shift_mm + side * 1.5 * w, 0.5 * w, 0);
     if (g.valid) n += 1, sum += g.mean;
   }
   out.ground = n > 0 ? sum / n : 0;

@@ -34,7 +34,9 @@
 //                           options.max_m_sigma;
 //     ok                    m and m_sigma (>= 1e-6) are set; r.note says so
 //                           when the reduced chi^2 exceeds poor_fit_chi2,
-//                           and when more than 2 % of the pixels are clipped.
+//                           and when more than 2 % of the pixels are clipped;
+//                           with read_gap_dips also a clipped element read
+//                           from its dips (below).
 //   r.beta and r.chi2_reduced are set whenever the fit was usable; m and
 //   m_sigma stay 0 unless the status is ok. r.resolved is not touched
 //   (decide_limits sets it).
@@ -48,9 +50,9 @@
 //   (profiles/gap_dips.h) gets r.gap_flat and a note; decide_limits never
 //   resolves it. With it, an element that would be `clipped` because the
 //   fit with its clipped bins as bounds cannot measure m is ok when both
-//   its gaps dip over 5 sigma and resolve it by options.criterion: m is
-//   then pi/4 of the shallower dip over the level step, model-free, with
-//   a 15 % type-B term in m_sigma, and r.m_from_dips is set.
+//   its gaps dip over 5 sigma and the ground beside it is not all clipped:
+//   m is then pi/4 of the shallower dip over the level step, model-free,
+//   with a 15 % type-B term in m_sigma, and r.m_from_dips is set.
 //   Layout mode keeps the criterion the truth file uses.
 // - Returns the seconds spent fitting (0 when no fit ran). Never throws for
 //   a bad profile: every failure is a status.

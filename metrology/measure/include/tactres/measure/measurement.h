@@ -98,8 +98,8 @@ struct ElementResult {
   // never resolved, whatever m reads.
   bool gap_flat = false;
   // ok, read from its gaps' dips rather than the profile model: clipped,
-  // and the model cannot measure its bars, yet all three show and resolve
-  // it (element_grading.h).
+  // and the model cannot measure its bars, yet all three show
+  // (element_grading.h).
   bool m_from_dips = false;
   bool resolved = false;
   bool detectable = false;

@@ -27,9 +27,9 @@ struct GapDips {
   // standard error of that difference from the bins' own errors.
   double dip[2] = {0, 0};
   double sigma[2] = {0, 0};
-  // The ground just outside the triplet (the mean over both sides' first
-  // bar width beyond the outer bars, clipped bins at their value), in the
-  // profile's value units; 0 when neither side holds a sample.
+  // The ground just outside the triplet: the mean of its unclipped bins
+  // from half a bar width to one and a half beyond each outer bar's edge,
+  // in the profile's value units; 0 when neither side holds one.
   double ground = 0;
 
   // The gap (0 or 1) that shows no dip (under 2 sigma) while the other
