@@ -57,6 +57,7 @@ void note_flat_gap(ElementResult& r, const SampledProfile& sp, const ProfileData
                   k == 0 ? "first" : "second", g.dip[k] / g.sigma[k], g.dip[1 - k] / g.sigma[1 - k]);
   r.note = r.note.empty() ? why : why + "; " + r.note;
 }
+
 // A clipped element whose fit cannot measure m (the clipping, or a
 // resampled photograph's halos, bend its profile beyond the model), yet
 // whose data show all three bars (profiles/gap_dips.h): m is read from the
@@ -93,12 +94,15 @@ bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileDa
   r.chi2_reduced = fit.chi2_reduced;
   r.m_from_dips = true;
   r.status = ElementStatus::ok;
-  set_signal(r, sp, fit, fo);
+  ProfileFit ground_fit = fit;  // the CNR's signal on the step's ground
+  ground_fit.b0 = step / c;
+  set_signal(r, sp, ground_fit, fo);
   r.note = fmt::format("{}, but both gaps dip ({:.0f} and {:.0f} sigma): m is read model-free, pi/4 of the shallower "
                        "dip over the level step (+-{:.0f} % for that approximation)",
                        why, g.dip[0] / g.sigma[0], g.dip[1] / g.sigma[1], 100 * kDipModelSigma);
   return true;
 }
+
 // An element of a chart photograph under the sampling floor counts only
 // where it is plainly seen: ok (by its fit, or by its dips when clipped),
 // with both gaps dipping over 5 sigma (profiles/gap_dips.h), as a person
@@ -126,6 +130,7 @@ bool keep_under_floor_if_seen(ElementResult& r, const SampledProfile& sp, const 
   r.note = floor + why;
   return false;
 }
+
 // Fits `data` (the strip's profile, prepared) and grades r by the fit:
 // grade_element's contract from the fit on.
 void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& data, const ProfileFitOptions& fo,

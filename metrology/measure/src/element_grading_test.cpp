@@ -222,6 +222,19 @@ TEST_CASE("under the sampling floor: a chart photograph's element counts only wh
   CHECK(faint.m == 0);
   CHECK(faint.note.find("under the 1.25 floor") != std::string::npos);
   CHECK(faint.note.find("kept") == std::string::npos);
+  // A fit dropped under the floor does not warm-start the next one; a kept
+  // one does.
+  ElementResult r = ElementResult::of(2, 1, BarOrientation::vertical_bars, 5.0, 1.2);
+  ProfileFitOptions fo;
+  fo.contrast = -0.8;
+  std::pair<double, double> warm{3.0, 2.5};
+  grade_element(r, clipped_triplet(0.9, 1.5, 1.0, 12), fo, 0.0, MeasureOptions{}, warm, {}, false, true);
+  REQUIRE(r.status == ElementStatus::below_sampling_limit);
+  CHECK(warm == std::pair<double, double>{3.0, 2.5});
+  r = ElementResult::of(2, 1, BarOrientation::vertical_bars, 5.0, 1.2);
+  grade_element(r, sharp, fo, 0.0, MeasureOptions{}, warm, {}, false, true);
+  REQUIRE(r.status == ElementStatus::ok);
+  CHECK(warm != std::pair<double, double>{3.0, 2.5});
   // At or under 1 px per bar nothing is fitted, chart photograph or not.
   CHECK(graded(sharp, 1.0, true).status == ElementStatus::below_sampling_limit);
 }
