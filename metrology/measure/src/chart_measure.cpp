@@ -34,11 +34,11 @@ ProfileSamplingOptions sampling_for(const MeasureOptions& mo, double px_per_bar)
 // centres them.
 //
 // The scale samples: per orientation the kScaleSamples coarsest patterns
-// of at least 4 px per bar whose scale fit succeeds. A scale fit costs three profile fits (a fifth
-// of chart mode when every coarse pattern took part); the coarsest pin the
-// scale down best (its relative error falls with the bars' size in
-// pixels), and on the chart they lie outermost, spanning the plane the
-// field fits.
+// of at least 4 px per bar whose scale fit succeeds. A scale fit costs
+// three profile fits (a fifth of chart mode when every coarse pattern took
+// part); the coarsest pin the scale down best (its relative error falls
+// with the bars' size in pixels), and on the chart they lie outermost,
+// spanning the plane the field fits.
 constexpr size_t kScaleSamples = 8;
 std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vector<PatternRef>& refs,
                                          const chart::PlacementStore& store, const MeasureOptions& mo) {
@@ -71,7 +71,8 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
       ProfileFitOptions fo;
       fo.fit_contrast = true;
       fo.fit_shape = false;
-      if (const auto a = chart::fit_scale(p.data, fo)) scale_samples[o].push_back({frames[i].center_px, frames[i].px_per_mm * *a});
+      if (const auto a = chart::fit_scale(p.data, fo))
+        scale_samples[o].push_back({frames[i].center_px, frames[i].px_per_mm * *a});
     }
   }
   chart::ScaleField field[2] = {chart::fit_scale_field(scale_samples[0]), chart::fit_scale_field(scale_samples[1])};
