@@ -208,13 +208,21 @@ cv::Mat stabilised(const cv::Mat& linear) {
 // light ones into `light` (a null pointer: that polarity is not searched).
 void collect_bars_at(const cv::Mat& img, double margin, double min_width_px, std::vector<Bar>* dark,
                      std::vector<Bar>* light) {
+  // One buffer for both windows' local mean and difference, one for the
+  // mask: a fresh image-sized buffer each time costs its page faults.
+  cv::Mat diff, mask;
   for (int k : {7, 15}) {
     if (k > 7 && k > std::min(img.cols, img.rows) / 2) break;
-    cv::Mat mean;
-    cv::blur(img, mean, {k, k}, {-1, -1}, cv::BORDER_REFLECT);
-    const cv::Mat diff = img - mean;
-    if (dark) collect_bars(diff < -margin, min_width_px, *dark);
-    if (light) collect_bars(diff > margin, min_width_px, *light);
+    cv::blur(img, diff, {k, k}, {-1, -1}, cv::BORDER_REFLECT);
+    cv::subtract(img, diff, diff);
+    if (dark) {
+      cv::compare(diff, -margin, mask, cv::CMP_LT);
+      collect_bars(mask, min_width_px, *dark);
+    }
+    if (light) {
+      cv::compare(diff, margin, mask, cv::CMP_GT);
+      collect_bars(mask, min_width_px, *light);
+    }
   }
 }
 

@@ -115,16 +115,21 @@ double drop_odd_separations(const ChartDetection& D, std::vector<ChartElement>& 
 // ones. Returns the misfit of the well-sampled ones (in steps^2).
 double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& elements,
                       const ScaleField& field, Vec2 g, std::vector<ChartElement>& out) {
-  auto corrected = [&](const ChartElement& e) { return e.period_px * std::exp(-dot(g, field.position(D, e))); };
-  std::vector<ChartElement> sorted = elements;
-  std::sort(sorted.begin(), sorted.end(),
-            [&](const ChartElement& a, const ChartElement& b) { return corrected(a) > corrected(b); });
-  const double p0 = corrected(sorted.front());
+  // Each element's corrected period as a logarithm, computed once: the
+  // gradient search calls this 900 times, and exp() in the sort's
+  // comparisons was 7 % of detection.
+  std::vector<std::pair<double, size_t>> ln_corrected;
+  for (size_t i = 0; i < elements.size(); ++i)
+    ln_corrected.push_back({std::log(elements[i].period_px) - dot(g, field.position(D, elements[i])), i});
+  std::sort(ln_corrected.begin(), ln_corrected.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  // Steps of the series from the largest: 6 log2(p0 / corrected period).
+  const double steps_per_ln = 6 / std::log(2.0), ln_p0 = ln_corrected.front().first;
+  auto steps = [&](double ln_c) { return steps_per_ln * (ln_p0 - ln_c); };
   double offset = 0;
   int n_offset = 0;
-  for (const ChartElement& e : sorted)
-    if (e.period_px >= kWellSampledPeriodPx) {
-      const double x = 6 * std::log2(p0 / corrected(e));
+  for (const auto& [ln_c, i] : ln_corrected)
+    if (elements[i].period_px >= kWellSampledPeriodPx) {
+      const double x = steps(ln_c);
       offset += x - std::round(x);
       ++n_offset;
     }
@@ -132,8 +137,9 @@ double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& 
   out.clear();
   double sum = 0, sum2 = 0;
   int n = 0;
-  for (ChartElement e : sorted) {
-    const double x = 6 * std::log2(p0 / corrected(e)) - offset;
+  for (const auto& [ln_c, i] : ln_corrected) {
+    ChartElement e = elements[i];
+    const double x = steps(ln_c) - offset;
     e.relative_index = static_cast<int>(std::lround(x));
     if (!out.empty()) e.relative_index = std::max(e.relative_index, out.back().relative_index + 1);
     if (e.relative_index - x > 1.6) continue;  // far off the series: not a chart element
