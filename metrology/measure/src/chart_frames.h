@@ -91,6 +91,22 @@ ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& f
 // chart's complement constant stays).
 ProfileData shifted_ideal(const ProfileData& d, double shift_mm);
 
+// One pattern's profile for common_shift_px: its bar width, and the mm
+// along its u that one px along the patterns' common direction is (signed:
+// a frame's u may point either way).
+struct ShiftSample {
+  const ProfileData* data = nullptr;
+  double bar_mm = 0;
+  double u_mm_per_px = 0;
+};
+
+// The shift (px along the patterns' common direction, within +-max_px, in
+// steps of 0.1 px) that the patterns share best: the sum of their bar-against-gap contrasts
+// (bars and gaps of the triplet only, each over its profile's rms about
+// its trend) is highest there. nullopt unless the patterns show their bars
+// clearly there and far better than unshifted (chart_frames.cpp).
+std::optional<double> common_shift_px(const std::vector<ShiftSample>& samples, bool light, double max_px);
+
 // The scale of the pattern (relative to the frame's) that the profile model
 // prefers; nullopt unless the pattern pins it down.
 std::optional<double> fit_scale(const ProfileData& d, const ProfileFitOptions& fo);

@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "chart_frames.h"
+#include "chart_jobs.h"
 #include "chart_level_step.h"
 #include "chart_motion.h"
 #include "tactres/measure/element_pipeline.h"
@@ -22,125 +23,7 @@ void ChartMeasureOptions::validate() const {
 namespace {
 
 using chart::PatternRef;
-
-ProfileSamplingOptions sampling_for(const MeasureOptions& mo, double px_per_bar) {
-  ProfileSamplingOptions so = mo.sampling;
-  so.bin_px = mo.bin_px_for(px_per_bar);
-  return so;
-}
-
-// Frames where each pattern was found, scaled by the profile model on the
-// coarse patterns, smoothed over the chart (chart_frames.h); pattern_jobs
-// centres them.
-//
-// The scale samples: per orientation the kScaleSamples coarsest patterns
-// of at least 4 px per bar whose scale fit succeeds. A scale fit costs
-// three profile fits (a fifth of chart mode when every coarse pattern took
-// part); the coarsest pin the scale down best (its relative error falls
-// with the bars' size in pixels), and on the chart they lie outermost,
-// spanning the plane the field fits.
-constexpr size_t kScaleSamples = 8;
-std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vector<PatternRef>& refs,
-                                         const chart::PlacementStore& store, const MeasureOptions& mo) {
-  std::vector<PatternFrame> frames;
-  std::vector<ProfileSamplingOptions> sampling;
-  std::vector<size_t> coarse[2];  // [vertical bars]: indices into refs
-  for (size_t i = 0; i < refs.size(); ++i) {
-    const PatternRef& r = refs[i];
-    const double px_per_bar = 0.5 * D.patterns[r.pattern].period_px;
-    const PatternFrame detected = chart::frame_of(D.patterns[r.pattern], r.orientation, r.lp_per_mm);
-    sampling.push_back(store.fitted_in_view(r, detected, sampling_for(mo, px_per_bar)));
-    frames.push_back(detected);
-    if (px_per_bar >= 4 && !r.lone) coarse[r.orientation == BarOrientation::vertical_bars].push_back(i);
-  }
-  std::vector<std::pair<Vec2, double>> scale_samples[2];
-  for (int o = 0; o < 2; ++o) {
-    std::stable_sort(coarse[o].begin(), coarse[o].end(), [&](size_t a, size_t b) {
-      return D.patterns[refs[a].pattern].period_px > D.patterns[refs[b].pattern].period_px;
-    });
-    for (size_t k = 0; k < coarse[o].size() && scale_samples[o].size() < kScaleSamples; ++k) {
-      const size_t i = coarse[o][k];
-      // Centred first, its margin fitted again (pattern_jobs centres every
-      // pattern at the field's scale).
-      if (!D.patterns[refs[i].pattern].predicted) {
-        frames[i] = store.recentre(refs[i], frames[i], sampling[i]);
-        sampling[i] = store.fitted_in_view(refs[i], frames[i], sampling[i]);
-      }
-      const SampledProfile p = store.sample(refs[i], frames[i], sampling[i]);
-      if (!p.in_view) continue;
-      ProfileFitOptions fo;
-      fo.fit_contrast = true;
-      fo.fit_shape = false;
-      if (const auto a = chart::fit_scale(p.data, fo))
-        scale_samples[o].push_back({frames[i].center_px, frames[i].px_per_mm * *a});
-    }
-  }
-  chart::ScaleField field[2] = {chart::fit_scale_field(scale_samples[0]), chart::fit_scale_field(scale_samples[1])};
-  if (!field[0].valid) field[0] = field[1];
-  if (!field[1].valid) field[1] = field[0];
-  for (size_t i = 0; i < refs.size(); ++i) {
-    const chart::ScaleField& s = field[refs[i].orientation == BarOrientation::vertical_bars];
-    if (s.valid) frames[i].px_per_mm = s.at(frames[i].center_px);
-  }
-  return frames;
-}
-
-// One job per pattern: its final frame (a found pattern's recentred at the
-// smoothed scale; a predicted one's where its column or the nesting put
-// it) and a second placement where it lies more than a tenth of a bar away,
-// the pipeline keeping whichever the model fits better (a misplaced
-// pattern reads as blur):
-// - a found pattern: its detected centre. On faint, barely sampled
-//   patterns (~3 px per bar, m ~ 0.1) the correlation can lock half a bar
-//   off while the binarised bars' centroid was right.
-// - a predicted pattern: the frame centred on its data. Its column or the
-//   nesting places it first, but a lens's distortion moves the nested
-//   copy: dev_03's group 7 lies a px (0.4 bar) off its nested prediction,
-//   where bars of m 0.7 read m ~ 0.
-//
-// `shifts` records, per profile the shift search ran on, the shift it chose
-// (mm along u): a live sequence's track keeps where each pattern's fit
-// centred it.
-using ShiftLog = std::vector<std::pair<const ProfileData*, double>>;
-
-std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<PatternRef>& refs,
-                                     const std::vector<PatternFrame>& frames, chart::PlacementStore& store,
-                                     const MeasureOptions& mo, ShiftLog* shifts) {
-  std::vector<ElementJob> jobs;
-  for (size_t i = 0; i < refs.size(); ++i) {
-    const PatternRef& r = refs[i];
-    const BarPattern& pattern = D.patterns[r.pattern];
-    ElementJob job;
-    ElementResult& e = job.element;
-    e = ElementResult::of(r.group, r.element, r.orientation, r.lp_per_mm, r.bar_width_mm() * frames[i].px_per_mm);
-    job.sampling = store.fitted_in_view(r, frames[i], sampling_for(mo, e.px_per_bar));
-    job.complement_ideal = D.light_bars;
-    const PatternFrame f = pattern.predicted ? frames[i] : store.recentre(r, frames[i], job.sampling);
-    // Recentring can move a strip that only just fitted out of the image
-    // (a single element filling the frame): fit its margin again.
-    job.sampling = store.fitted_in_view(r, f, job.sampling);
-    e.px_per_bar = r.bar_width_mm() * f.px_per_mm;
-    job.placements.push_back(store.place(r, f, job.sampling));
-    PatternFrame second = f;
-    if (pattern.predicted) second = store.recentre(r, f, job.sampling);
-    else second.center_px = pattern.center_px;
-    if (norm(second.center_px - f.center_px) > 0.1 * e.px_per_bar)
-      job.placements.push_back(store.place(r, second, store.fitted_in_view(r, second, job.sampling)));
-    // A found pattern's fit moves its bars within a quarter of a bar
-    // (refine_shift_by_fit); a predicted one's does not, so that its faint
-    // bars' noise cannot pull a fit onto them: only the correlation
-    // centring above offers it a second place.
-    if (!pattern.predicted)
-      job.prepare = [w = r.bar_width_mm(), shifts](const ProfileData& d, const ProfileFitOptions& o) {
-        double shift_mm = 0;
-        ProfileData out = chart::refine_shift_by_fit(d, o, w, &shift_mm);
-        if (shifts) shifts->push_back({&d, shift_mm});
-        return out;
-      };
-    jobs.push_back(std::move(job));
-  }
-  return jobs;
-}
+using chart::ShiftLog;
 
 // The missing pattern of each element of which only one was found
 // (ChartElement::partial): a status, not a guess, so it is never resolved
@@ -491,8 +374,9 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   for (const ChartElement& e : D.partial) add_refs(e, true);
   chart::PlacementStore store(lum, D, image.saturation_level);
   ShiftLog shifts;
-  const std::vector<PatternFrame> frames = pattern_frames(D, refs, store, mo);
-  const std::vector<ElementJob> jobs = pattern_jobs(D, refs, frames, store, mo, &shifts);
+  std::vector<PatternFrame> frames = chart::pattern_frames(D, refs, store, mo);
+  chart::shift_predicted_groups(D, refs, frames, store, mo);
+  const std::vector<ElementJob> jobs = chart::pattern_jobs(D, refs, frames, store, mo, &shifts);
   const auto profiles = sample_jobs(lum, jobs, image.saturation_level);
   M.stage_seconds.push_back({"frames", t.seconds()});
 
