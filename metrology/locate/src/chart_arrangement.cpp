@@ -197,6 +197,7 @@ void predict_column_ends(ChartDetection& D) {
         p.period_px *= r;
         p.bar_length_px *= r;
         p.predicted = true;
+        p.nested = false;
         for (Vec2& b : p.bar_centers_px) b = p.center_px + r * (b - c);
         D.patterns.push_back(p);
         *which = static_cast<int>(D.patterns.size()) - 1;
@@ -224,6 +225,7 @@ BarPattern nested_pattern(const BarPattern& p, Vec2 centre_px) {
   q.bar_length_px *= kPairScale;
   for (Vec2& b : q.bar_centers_px) b = centre_px + kPairScale * (b - centre_px);
   q.predicted = true;
+  q.nested = true;
   return q;
 }
 

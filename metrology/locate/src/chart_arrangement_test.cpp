@@ -171,6 +171,7 @@ TEST_CASE("column ends: a recognised arrangement ends a column at element 6, anc
   c.D.arrangement.phase = 1;
   predict_column_ends(c.D);
   CHECK(c.D.predicted_elements == 2);
+  for (const BarPattern& p : c.D.patterns) CHECK_FALSE(p.nested);  // a column's, not the nesting's
   // Not recognised: one step beyond three in a row.
   Built d = build(range(1, 3), v);
   predict_column_ends(d.D);
@@ -216,7 +217,9 @@ TEST_CASE("nesting: the inner pair is the outer one a quarter the size, and its 
   for (const ChartElement& e : b.D.elements) {
     CAPTURE(e.relative_index);
     CHECK(e.relative_index <= 23);
+    CHECK(b.D.patterns[e.h].nested == b.D.patterns[e.h].predicted);
     if (!b.D.patterns[e.h].predicted) continue;
+    CHECK(b.D.patterns[e.v].nested);
     const auto [h, vc] = true_centres(e.relative_index, v);
     CHECK(norm(b.D.patterns[e.h].center_px - h) < 0.01);
     CHECK(norm(b.D.patterns[e.v].center_px - vc) < 0.01);

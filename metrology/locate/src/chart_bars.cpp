@@ -33,8 +33,8 @@ double noise_sigma(const cv::Mat& img) {
   // On a lattice of at most 2^16 pixels (every other pixel of every other
   // row at least), with the 3x3 mean taken there alone: the median of 2^16
   // values is known to about 0.5 %, and a full-image blur for a quarter
-  // of its values cost 6 % of chart mode (a lattice rounded to 1.5 x 2^16
-  // instead, 3 % of detection).
+  // of its values cost 6 % of chart mode (the step rounded down, up to
+  // 2.25 x as many pixels, 3 % of detection).
   // Beyond every other pixel, each sampled row starts one pixel further
   // on (cyclically), so that the windows meet every column phase: a fixed
   // lattice of step 4 or 8 would never straddle a JPEG's 8 x 8 block edges,

@@ -82,13 +82,23 @@ std::vector<cv::Point> box_polygon(const ElementFrame& f, const RectMm& r, int i
   return pts;
 }
 
-// nullopt when the box is not fully in view.
-std::optional<LabelWindow> label_window(const cv::Mat& img, const ElementFrame& f, const RectMm& box) {
+// The image-axis bounds (px) of a box given in frame f's bar widths.
+struct PixelBounds {
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+};
+
+PixelBounds image_bounds(const ElementFrame& f, const RectMm& box) {
+  PixelBounds b;
   for (Vec2 c : {Vec2{box.x0, box.y0}, Vec2{box.x1, box.y0}, Vec2{box.x0, box.y1}, Vec2{box.x1, box.y1}}) {
     const Vec2 q = f.to_image(c);
-    x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+    b.x0 = std::min(b.x0, q.x), b.y0 = std::min(b.y0, q.y), b.x1 = std::max(b.x1, q.x), b.y1 = std::max(b.y1, q.y);
   }
+  return b;
+}
+
+// nullopt when the box is not fully in view.
+std::optional<LabelWindow> label_window(const cv::Mat& img, const ElementFrame& f, const RectMm& box) {
+  const auto [x0, y0, x1, y1] = image_bounds(f, box);
   if (x0 < 0 || y0 < 0 || x1 > img.cols - 1 || y1 > img.rows - 1) return std::nullopt;
   constexpr int kPad = 12;
   LabelWindow w;
@@ -223,31 +233,28 @@ std::pair<int, int> best_offset(const cv::Mat& img, const cv::Mat& ink, const La
 
 // The image a label is read in: `img` itself, or, where its strokes are
 // 6 px wide or more, the region around `box` taken octaves down a Gaussian
-// pyramid until they are 3-6 px wide, with `f` moved into it. The fits
-// cost in proportion to the label's area: the largest label of the
-// benchmark chart (strokes 12 px wide) took 7.6 ms of detection's 43 ms
-// at full size, and strokes 3 px wide read as well.
+// pyramid until they are 3-6 px wide, with `f` moved into it (its place
+// search, best_offset, then steps whole octave pixels). The fits cost in
+// proportion to the label's area: the largest label of the benchmark
+// chart (strokes 12 px wide) took 7.6 ms of detection's 43 ms at full
+// size, and strokes 3 px wide read as well.
 cv::Mat label_octave(const cv::Mat& img, const RectMm& box, ElementFrame& f, double stroke_px) {
   int levels = 0;
   while (stroke_px * std::exp2(-(levels + 1)) >= 3) ++levels;
   if (levels == 0) return img;
-  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-  for (Vec2 c : {Vec2{box.x0, box.y0}, Vec2{box.x1, box.y0}, Vec2{box.x0, box.y1}, Vec2{box.x1, box.y1}}) {
-    const Vec2 q = f.to_image(c);
-    x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
-  }
-  // Room for label_window's pad and the offsets at the octave; the crop
-  // starts on a multiple of 2^levels, so that pixel k of the octave is
-  // pixel 2^levels k of the crop.
+  const PixelBounds b = image_bounds(f, box);
+  // Room for label_window's pad and the offsets at the octave. Pixel k of
+  // the octave is pixel 2^levels k of the crop (pyrDown), wherever the
+  // crop starts.
   const int scale = 1 << levels, pad = 24 * scale;
-  const int cx0 = std::max(0, (static_cast<int>(std::floor(x0)) - pad) / scale * scale);
-  const int cy0 = std::max(0, (static_cast<int>(std::floor(y0)) - pad) / scale * scale);
-  const int cx1 = std::min(img.cols, static_cast<int>(std::ceil(x1)) + pad);
-  const int cy1 = std::min(img.rows, static_cast<int>(std::ceil(y1)) + pad);
+  const int cx0 = std::max(0, static_cast<int>(std::floor(b.x0)) - pad);
+  const int cy0 = std::max(0, static_cast<int>(std::floor(b.y0)) - pad);
+  const int cx1 = std::min(img.cols, static_cast<int>(std::ceil(b.x1)) + pad);
+  const int cy1 = std::min(img.rows, static_cast<int>(std::ceil(b.y1)) + pad);
   if (cx1 - cx0 < 2 * scale || cy1 - cy0 < 2 * scale) return img;
   cv::Mat small = img(cv::Range(cy0, cy1), cv::Range(cx0, cx1));
   for (int l = 0; l < levels; ++l) cv::pyrDown(small, small);
-  f.origin_px = (1.0 / scale) * (f.origin_px - Vec2{double(cx0), double(cy0)});
+  f.origin_px = from_octave(f.origin_px - Vec2{double(cx0), double(cy0)}, -levels);
   f.bar_px /= scale;
   return small;
 }

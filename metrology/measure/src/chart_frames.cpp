@@ -59,9 +59,10 @@ std::vector<ArtworkShape> local_artwork(const ChartDetection& D, const PatternRe
 
 // The detrended profile of a pattern: its filled bins' positions and their
 // departures from the straight line through them (light falling off
-// across a strip would otherwise favour one side).
+// across a strip would otherwise favour one side), with the bins'
+// standard errors.
 struct Detrended {
-  std::vector<double> u_mm, r;
+  std::vector<double> u_mm, r, sigma;
   double rms = 0;
 };
 
@@ -81,6 +82,7 @@ Detrended detrended(const ProfileData& d) {
     if (d.count[b] > 0) {
       out.u_mm.push_back(d.u_mean_mm[b]);
       out.r.push_back(d.value[b] - (icpt + slope * d.u_mean_mm[b]));
+      out.sigma.push_back(d.sigma[b]);
       ss += out.r.back() * out.r.back();
     }
   out.rms = std::sqrt(ss / static_cast<double>(out.r.size()));
@@ -89,22 +91,29 @@ Detrended detrended(const ProfileData& d) {
 
 // The mean level in narrow windows (half a bar) at the bar centres k w, k
 // even, against that at the gap centres, k odd, for |k| <= k_max, with the
-// pattern moved by `shift_mm`; signed so that a match is positive. -1e300
-// where no window holds a sample.
-double bar_gap_contrast(const Detrended& t, double w, bool light, double shift_mm, int k_max) {
-  double bar = 0, gap = 0;
+// pattern moved by `shift_mm`; signed so that a match is positive.
+struct WindowContrast {
+  double contrast = -1e300;  // -1e300: no bin in the bar windows or none in the gap windows
+  double sigma = 0;          // its standard error, from the bins' (ProfileData::sigma)
+};
+
+WindowContrast bar_gap_contrast(const Detrended& t, double w_mm, bool light, double shift_mm, int k_max) {
+  double bar = 0, gap = 0, var_bar = 0, var_gap = 0;
   int nb = 0, ng = 0;
   for (size_t i = 0; i < t.u_mm.size(); ++i) {
     const double u = t.u_mm[i] - shift_mm;
     for (int k = -k_max; k <= k_max; ++k) {
-      if (std::abs(u - k * w) >= 0.25 * w) continue;
-      if (k % 2 == 0) bar += t.r[i], ++nb;
-      else gap += t.r[i], ++ng;
+      if (std::abs(u - k * w_mm) >= 0.25 * w_mm) continue;
+      if (k % 2 == 0) bar += t.r[i], var_bar += t.sigma[i] * t.sigma[i], ++nb;
+      else gap += t.r[i], var_gap += t.sigma[i] * t.sigma[i], ++ng;
     }
   }
-  if (nb == 0 || ng == 0) return -1e300;
+  WindowContrast out;
+  if (nb == 0 || ng == 0) return out;
   const double c = bar / nb - gap / ng;
-  return light ? c : -c;
+  out.contrast = light ? c : -c;
+  out.sigma = std::sqrt(var_bar / (double(nb) * nb) + var_gap / (double(ng) * ng));
+  return out;
 }
 
 // Shift (mm, along u) of the pattern that best matches the data: the bar
@@ -112,12 +121,12 @@ double bar_gap_contrast(const Detrended& t, double w, bool light, double shift_m
 // the detrended profile. Blur is symmetric, so it does not move
 // the optimum; the scale is left to the profile fit (fit_scale), because
 // any such template is biased in scale by the blur of a finite pattern.
-double refine_shift(const ProfileData& d, double w, bool light) {
+double refine_shift(const ProfileData& d, double w_mm, bool light) {
   const Detrended t = detrended(d);
   if (t.r.empty()) return 0;
-  auto score = [&](double shift) { return bar_gap_contrast(t, w, light, shift, 3); };
+  auto score = [&](double shift_mm) { return bar_gap_contrast(t, w_mm, light, shift_mm, 3).contrast; };
   double best_shift = 0, best = -1e300;
-  const double h = 0.05 * w;
+  const double h = 0.05 * w_mm;
   for (int i = -12; i <= 12; ++i) {
     const double v = score(i * h);
     if (v > best) best = v, best_shift = i * h;
@@ -138,34 +147,77 @@ ProfileData scaled(const ProfileData& d, double scale) {
 
 }  // namespace
 
-std::optional<double> common_shift_px(const std::vector<ShiftSample>& samples, bool light, double max_px) {
-  std::vector<Detrended> t;
-  for (const ShiftSample& s : samples) t.push_back(detrended(*s.data));
-  // Only the triplet's own windows (|k| <= 2): beyond the outer bars of a
-  // column's patterns stand its neighbours.
-  auto total = [&](double shift_px) {
-    double sum = 0;
-    for (size_t i = 0; i < samples.size(); ++i) {
-      if (!(t[i].rms > 0)) continue;
-      const double c = bar_gap_contrast(t[i], samples[i].bar_mm, light, shift_px * samples[i].u_mm_per_px, 2);
-      if (c > -1e300) sum += c / t[i].rms;
-    }
-    return sum;
-  };
+std::vector<std::optional<double>> shared_shifts_px(const std::vector<ShiftSample>& samples, bool light,
+                                                    double max_px) {
+  const size_t n = samples.size();
   constexpr double kStepPx = 0.1;
-  const int n = static_cast<int>(max_px / kStepPx);
-  double best_px = 0, best_total = total(0);
-  for (int i = -n; i <= n; ++i)
-    if (const double v = total(i * kStepPx); v > best_total) best_total = v, best_px = i * kStepPx;
-  // Taken only where the patterns show their bars clearly, and far better
-  // than where they were placed (by half an rms a pattern). Clearly: a
-  // mean contrast of 1.2 rms or more. On noise alone a pattern's contrast
-  // over the rms scatters by sqrt(1/n_bar + 1/n_gap), 0.6-0.8 for the few
-  // bins of a half-bar window, so four patterns' sum stands 4 sigma above
-  // it; the groups this moved on real captures reached 1.3-2.2.
-  const double count = static_cast<double>(samples.size());
-  if (best_total < 1.2 * count || best_total - total(0) < 0.5 * count) return std::nullopt;
-  return best_px;
+  const int steps = static_cast<int>(max_px / kStepPx);
+  const size_t trials = 2 * static_cast<size_t>(steps) + 1;  // trial t: shift (t - steps) kStepPx
+  // Per sample and trial, the contrast itself (which picks the shift: the
+  // patterns share the light, and one without bars adds only its noise),
+  // over the profile's rms (how clearly the bars show) and over its
+  // standard error (how surely). Only the triplet's own windows
+  // (|k| <= 2): beyond the outer bars of a column's patterns stand its
+  // neighbours.
+  const std::vector<double> none(trials, 0);
+  std::vector<std::vector<double>> contrast(n, none), effect(n, none), z(n, none);
+  std::vector<unsigned char> usable(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const Detrended t = detrended(*samples[i].data);
+    if (!(t.rms > 0)) continue;
+    usable[i] = 1;
+    for (size_t k = 0; k < trials; ++k) {
+      const double shift_px = (static_cast<int>(k) - steps) * kStepPx;
+      const WindowContrast c = bar_gap_contrast(t, samples[i].bar_mm, light, shift_px * samples[i].u_mm_per_px, 2);
+      if (c.contrast <= -1e300 || !(c.sigma > 0)) continue;
+      contrast[i][k] = c.contrast;
+      effect[i][k] = c.contrast / t.rms;
+      z[i][k] = c.contrast / c.sigma;
+    }
+  }
+  // The sum over the patterns but `except` (n: over all) at trial k.
+  auto sum_but = [&](const std::vector<std::vector<double>>& per, size_t k, size_t except) {
+    double total = 0;
+    for (size_t j = 0; j < n; ++j)
+      if (j != except && usable[j]) total += per[j][k];
+    return total;
+  };
+  const size_t zero = static_cast<size_t>(steps);
+  double count = 0;
+  for (size_t j = 0; j < n; ++j) count += usable[j];
+  std::vector<std::optional<double>> out(n);
+  for (size_t i = 0; i < n; ++i) {
+    // Where: the others' best, so that a pattern's own noise cannot place
+    // it.
+    size_t best = zero;
+    for (size_t k = 0; k < trials; ++k)
+      if (sum_but(contrast, k, i) > sum_but(contrast, best, i)) best = k;
+    // Whether: the whole group there (a pattern's data at a place its own
+    // noise did not choose are unbiased; the pattern best seen must agree
+    // too: left out, the faint rest can line up on the next element's
+    // bars, 1.5 bars along a column). Only where the bars show clearly
+    // and surely, and far better than where they were placed:
+    // - a mean contrast of one rms or more (the groups moved on real
+    //   captures reach 1.2-2.2; those left where predicted, 0.1-0.55);
+    // - half an rms a pattern more than unshifted;
+    // - a summed significance of kMinSignificance (on noise alone, a
+    //   standard normal at each trial, rarely above 4 at the best of them;
+    //   on real captures the bins' noise model understates the texture,
+    //   and it reads 5-14 where there are no bars to line up, so the
+    //   contrast decides there);
+    // - two patterns or more that show their bars there on their own (a
+    //   contrast of one rms, 4 sigma): one pattern lines up as well a
+    //   period away.
+    constexpr double kMinSignificance = 5;
+    const double effect_there = sum_but(effect, best, n);
+    int clear = 0;
+    for (size_t j = 0; j < n; ++j) clear += usable[j] && effect[j][best] >= 1 && z[j][best] >= 4;
+    if (effect_there < count || effect_there - sum_but(effect, zero, n) < 0.5 * count ||
+        sum_but(z, best, n) / std::sqrt(count) < kMinSignificance || clear < 2)
+      continue;
+    out[i] = (static_cast<int>(best) - steps) * kStepPx;
+  }
+  return out;
 }
 
 PatternFrame frame_of(const BarPattern& p, BarOrientation o, double lp_per_mm) {

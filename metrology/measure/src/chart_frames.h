@@ -1,10 +1,11 @@
 #pragma once
-// Chart mode's geometry (private to chart_measure.cpp): each detected bar
-// pattern gets its own frame, a PatternFrame (camera/plane_map.h) whose
-// plane is the pattern's, in mm of its element; the ideal artwork of that
-// plane holds the pattern's own bars and the detected patterns near it. The
-// frame is refined on the profile itself (shift and scale across the bars),
-// because the profile model has no shift: a misplaced pattern reads as blur.
+// Chart mode's geometry (private to chart_jobs.cpp and chart_measure.cpp):
+// each detected bar pattern gets its own frame, a PatternFrame
+// (camera/plane_map.h) whose plane is the pattern's, in mm of its element;
+// the ideal artwork of that plane holds the pattern's own bars and the
+// detected patterns near it. The frame is refined on the profile itself
+// (shift and scale across the bars), because the profile model has no
+// shift: a misplaced pattern reads as blur.
 
 #include <deque>
 #include <memory>
@@ -70,7 +71,7 @@ class PlacementStore {
   ProfileSamplingOptions fitted_in_view(const PatternRef& r, const PatternFrame& f, ProfileSamplingOptions so) const;
   // The frame moved onto the pattern across the bars (by correlation with
   // the ideal pattern, within 0.6 bar). Callers decide whether a predicted
-  // pattern is recentred (chart_measure.cpp: only as a second placement).
+  // pattern is recentred (chart_jobs.cpp: only as a second placement).
   PatternFrame recentre(const PatternRef& r, PatternFrame f, const ProfileSamplingOptions& so) const;
 
  private:
@@ -91,7 +92,7 @@ ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& f
 // chart's complement constant stays).
 ProfileData shifted_ideal(const ProfileData& d, double shift_mm);
 
-// One pattern's profile for common_shift_px: its bar width, and the mm
+// One pattern's profile for shared_shifts_px: its bar width, and the mm
 // along its u that one px along the patterns' common direction is (signed:
 // a frame's u may point either way).
 struct ShiftSample {
@@ -100,12 +101,16 @@ struct ShiftSample {
   double u_mm_per_px = 0;
 };
 
-// The shift (px along the patterns' common direction, within +-max_px, in
-// steps of 0.1 px) that the patterns share best: the sum of their bar-against-gap contrasts
-// (bars and gaps of the triplet only, each over its profile's rms about
-// its trend) is highest there. nullopt unless the patterns show their bars
-// clearly there and far better than unshifted (chart_frames.cpp).
-std::optional<double> common_shift_px(const std::vector<ShiftSample>& samples, bool light, double max_px);
+// For each pattern, the shift (px along the patterns' common direction,
+// within +-max_px, in steps of 0.1 px) that the other patterns share best:
+// the sum of their bar-against-gap contrasts (bars and gaps of the triplet
+// only) is highest there, so that a pattern's own noise cannot place it.
+// nullopt unless the whole group shows its bars there clearly (over each
+// profile's rms about its trend), significantly (by the bins' standard
+// errors), in two patterns or more, and far better than unshifted
+// (chart_frames.cpp).
+std::vector<std::optional<double>> shared_shifts_px(const std::vector<ShiftSample>& samples, bool light,
+                                                    double max_px);
 
 // The scale of the pattern (relative to the frame's) that the profile model
 // prefers; nullopt unless the pattern pins it down.

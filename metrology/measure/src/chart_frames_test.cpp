@@ -8,17 +8,29 @@
 namespace tactres::chart {
 namespace {
 
-// A dark-bar triplet's profile (bars w_mm wide at -2w, 0, 2w, moved by
-// shift_mm along u), level 1 with bars at 0.6, blurred by a Gaussian of
-// 0.4 w, binned at w/5 over +-4 w, with white noise of sd noise_sd.
-ProfileData triplet_profile(double w_mm, double shift_mm, double noise_sd, std::mt19937& rng) {
+struct ProfileSpec {
+  double bar_px = 2;
+  double offset_px = 0;       // where the pattern lies, px along u
+  double contrast = 0.4;      // 0: no bars
+  bool light = false;         // light bars on a dark ground
+  double noise_sd = 0.01;     // per bin mean
+  double bin_px = 0.4;
+  int filled_every = 1;       // 4 at bins of 0.25 px: one pixel column in every fourth bin
+};
+
+// A triplet's profile at 40 px/mm (bars at -2w, 0, 2w moved by offset_px),
+// ground 1, blurred by a Gaussian of 0.4 bar, over +-4 bars, with white
+// noise on the filled bins.
+ProfileData triplet_profile(const ProfileSpec& p, std::mt19937& rng) {
+  constexpr double kPxPerMm = 40;
+  const double w_mm = p.bar_px / kPxPerMm, shift_mm = p.offset_px / kPxPerMm;
   ProfileData d;
-  d.bin_mm = 0.2 * w_mm;
-  d.u0_mm = -4 * w_mm;
-  d.bin_count = 40;
+  d.bin_mm = p.bin_px / kPxPerMm;
+  d.bin_count = static_cast<int>(std::ceil(8 * w_mm / d.bin_mm));
+  d.u0_mm = -0.5 * d.bin_count * d.bin_mm;
   d.fit_begin = 0;
   d.fit_end = d.bin_count;
-  std::normal_distribution<double> noise(0, noise_sd);
+  std::normal_distribution<double> noise(0, p.noise_sd);
   const double s = 0.4 * w_mm * std::sqrt(2.0);
   for (int b = 0; b < d.bin_count; ++b) {
     const double u = d.bin_center_mm(b);
@@ -27,59 +39,109 @@ ProfileData triplet_profile(double w_mm, double shift_mm, double noise_sd, std::
       const double c = 2 * k * w_mm + shift_mm;
       bar += 0.5 * (std::erf((u - c + 0.5 * w_mm) / s) - std::erf((u - c - 0.5 * w_mm) / s));
     }
+    const bool filled = b % p.filled_every == 0;
     d.u_mean_mm.push_back(u);
-    d.value.push_back(1 - 0.4 * bar + (noise_sd > 0 ? noise(rng) : 0));
-    d.count.push_back(4);
-    d.sigma.push_back(noise_sd > 0 ? noise_sd : 0.01);
+    d.value.push_back(filled ? (p.light ? 0.6 + p.contrast * bar : 1 - p.contrast * bar) + noise(rng) : NAN);
+    d.count.push_back(filled ? 6 : 0);
+    d.sigma.push_back(filled ? p.noise_sd : 1.0);
   }
   return d;
 }
 
-// Four patterns of one nested group (bars 2.4, 2.1, 1.9 and 1.7 px wide at
-// 40 px/mm), all placed `offset_px` off along the group's common direction;
-// the second one's u runs the other way.
+// Four patterns of one nested group (bars 2.4, 2.1, 1.9 and 1.7 px wide),
+// placed `offset_px` off along the group's common direction; the u of the
+// second and third runs the other way. `bars[i]`: whether pattern i shows
+// bars.
 struct Group {
   std::vector<ProfileData> data;
   std::vector<ShiftSample> samples;
 };
 
-Group misplaced_group(double offset_px, double noise_sd, unsigned seed) {
+Group group_of(ProfileSpec spec, std::array<bool, 4> bars, unsigned seed) {
   std::mt19937 rng(seed);
   Group g;
-  const double px_per_mm = 40;
   const double bar_px[] = {2.4, 2.1, 1.9, 1.7};
-  const double sign[] = {1, -1, 1, 1};
+  const double sign[] = {1, -1, -1, 1};
+  const double offset_px = spec.offset_px, contrast = spec.contrast;
   for (int i = 0; i < 4; ++i) {
-    const double w_mm = bar_px[i] / px_per_mm;
-    // The pattern lies offset_px away: at u = sign * offset / scale.
-    g.data.push_back(triplet_profile(w_mm, sign[i] * offset_px / px_per_mm, noise_sd, rng));
+    spec.bar_px = bar_px[i];
+    spec.offset_px = sign[i] * offset_px;
+    spec.contrast = bars[i] ? contrast : 0;
+    g.data.push_back(triplet_profile(spec, rng));
   }
-  for (int i = 0; i < 4; ++i) g.samples.push_back({&g.data[i], bar_px[i] / px_per_mm, sign[i] / px_per_mm});
+  for (int i = 0; i < 4; ++i) g.samples.push_back({&g.data[i], bar_px[i] / 40, sign[i] / 40});
   return g;
 }
 
-TEST_CASE("common_shift_px: a group placed 1.5 bars off is moved onto its bars, whichever way each u runs") {
-  for (const double offset_px : {-3.0, -1.5, 2.0}) {
-    CAPTURE(offset_px);
-    const Group g = misplaced_group(offset_px, 0.01, 1);
-    const std::optional<double> s = common_shift_px(g.samples, false, 1.5 * 2.4);
-    REQUIRE(s);
-    CHECK(std::abs(*s - offset_px) <= 0.15);  // a step and a half
+constexpr std::array<bool, 4> kAllBars{true, true, true, true};
+
+TEST_CASE("shared_shifts_px: a group placed a bar off is moved onto its bars, whichever way each u runs") {
+  for (const bool light : {false, true})
+    for (const double offset_px : {-3.0, -1.5, 2.0}) {
+      CAPTURE(light);
+      CAPTURE(offset_px);
+      ProfileSpec spec;
+      spec.offset_px = offset_px;
+      spec.light = light;
+      const Group g = group_of(spec, kAllBars, 1);
+      const auto shifts = shared_shifts_px(g.samples, light, 1.5 * 2.4);
+      for (const auto& s : shifts) {
+        REQUIRE(s);
+        CHECK(std::abs(*s - offset_px) <= 0.15);  // a step and a half
+      }
+    }
+}
+
+TEST_CASE("shared_shifts_px: each pattern is moved by the others' shift, not by its own noise") {
+  // The fourth pattern shows no bars: it moves with the rest, to where its
+  // bars would be, not to where its noise fits best.
+  ProfileSpec spec;
+  spec.offset_px = 2.0;
+  for (unsigned seed = 1; seed < 21; ++seed) {
+    CAPTURE(seed);
+    const Group g = group_of(spec, {true, true, true, false}, seed);
+    const auto shifts = shared_shifts_px(g.samples, false, 3.6);
+    REQUIRE(shifts[3]);
+    CHECK(std::abs(*shifts[3] - 2.0) <= 0.15);
+    // Its own data do not place it: other noise gives the same shift.
+    Group other = group_of(spec, {true, true, true, false}, seed);
+    std::mt19937 rng(seed + 1000);
+    ProfileSpec own = spec;
+    own.bar_px = 1.7;
+    own.contrast = 0;
+    own.noise_sd = 0.03;
+    other.data[3] = triplet_profile(own, rng);
+    const auto other_shifts = shared_shifts_px(other.samples, false, 3.6);
+    CHECK((!other_shifts[3] || *other_shifts[3] == *shifts[3]));
+    // One pattern with bars among three without: a pattern may be moved to
+    // where those bars are, never elsewhere.
+    const auto one = shared_shifts_px(group_of(spec, {true, false, false, false}, seed).samples, false, 3.6);
+    for (size_t i = 0; i < 4; ++i) {
+      CAPTURE(i);
+      CAPTURE(one[i].value_or(-99));
+      CHECK((!one[i] || std::abs(*one[i] - 2.0) <= 0.6));  // a quarter bar
+    }
   }
 }
 
-TEST_CASE("common_shift_px: no shift where the patterns are in place, or show no bars") {
+TEST_CASE("shared_shifts_px: no shift where the patterns are in place, or show no bars") {
   // In place: nothing to gain over where they are.
-  CHECK_FALSE(common_shift_px(misplaced_group(0.0, 0.01, 2).samples, false, 3.6));
-  // Only noise: whatever shift it likes best is no group's.
-  for (unsigned seed = 3; seed < 103; ++seed) {
-    CAPTURE(seed);
-    Group g = misplaced_group(0.0, 0.05, seed);
-    std::mt19937 rng(seed);
-    std::normal_distribution<double> noise(0, 0.05);
-    for (ProfileData& d : g.data)
-      for (double& v : d.value) v = 1 + noise(rng);
-    CHECK_FALSE(common_shift_px(g.samples, false, 3.6));
+  for (const auto& s : shared_shifts_px(group_of(ProfileSpec{}, kAllBars, 2).samples, false, 3.6)) CHECK_FALSE(s);
+  // Only noise, white per bin, or a pixel column in every fourth bin of a
+  // chart square to the pixel grid (a half-bar window holds 0-2 bins):
+  // whatever shift it likes best is no group's.
+  for (const int filled_every : {1, 4}) {
+    ProfileSpec spec;
+    spec.contrast = 0;
+    spec.noise_sd = 0.05;
+    spec.filled_every = filled_every;
+    spec.bin_px = filled_every == 1 ? 0.4 : 0.25;
+    for (unsigned seed = 3; seed < 303; ++seed) {
+      CAPTURE(filled_every);
+      CAPTURE(seed);
+      for (const auto& s : shared_shifts_px(group_of(spec, {false, false, false, false}, seed).samples, false, 3.6))
+        CHECK_FALSE(s);
+    }
   }
 }
 

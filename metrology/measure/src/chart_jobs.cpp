@@ -78,28 +78,30 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
   return frames;
 }
 
-// Predicted patterns (BarPattern::predicted) of one group and orientation
-// were placed together: the nesting maps a coarse group as a whole, and a
-// lens's distortion moves the nested copy as a whole (dev_03's group 7 H
-// triplets, 1.4-2.4 px per bar, lie 2 px below their prediction: 1.5 of
-// their bars, beyond what centring each one reaches). A group of four or
-// more such patterns is moved across its bars by the shift its patterns
-// share best (common_shift_px, within 1.5 bars of its coarsest):
+// The patterns the nesting predicted (BarPattern::nested) for one group
+// and orientation were placed together, a coarse group mapped as a whole,
+// and a lens's distortion moves the copy as a whole: dev_03's group 7 H
+// triplets (1.4-2.4 px per bar) lie 2 px off their prediction, 0.8-1.5 of
+// their bars, beyond what centring each one reaches. A group of four or
+// more such patterns is moved across its bars, each pattern by the shift
+// the others share (shared_shifts_px, within 1.5 bars of the coarsest):
 // one faint pattern could not place itself so far, but a shift that lines
 // up the bars of several patterns of different periods at once is theirs.
-// Fewer patterns could line up on noise (common_shift_px's threshold).
+// Fewer patterns could line up on noise. A column's predictions
+// (BarPattern::predicted, not nested) are not moved together: their error
+// grows along the column.
 constexpr size_t kMinGroupPatterns = 4;
 void shift_predicted_groups(const ChartDetection& D, const std::vector<PatternRef>& refs,
                             std::vector<PatternFrame>& frames, const PlacementStore& store,
                             const MeasureOptions& mo) {
   std::map<std::pair<int, BarOrientation>, std::vector<size_t>> groups;
   for (size_t i = 0; i < refs.size(); ++i)
-    if (D.patterns[refs[i].pattern].predicted && !refs[i].lone)
-      groups[{refs[i].group, refs[i].orientation}].push_back(i);
+    if (D.patterns[refs[i].pattern].nested && !refs[i].lone) groups[{refs[i].group, refs[i].orientation}].push_back(i);
   for (const auto& [key, members] : groups) {
     if (members.size() < kMinGroupPatterns) continue;
     std::vector<SampledProfile> profiles;
     std::vector<ShiftSample> samples;
+    std::vector<size_t> sampled;  // the members with a sample, in its order
     double max_bar_px = 0;
     profiles.reserve(members.size());
     const Vec2 common = across_dir(frames[members[0]], refs[members[0]].orientation);
@@ -108,15 +110,15 @@ void shift_predicted_groups(const ChartDetection& D, const std::vector<PatternRe
       max_bar_px = std::max(max_bar_px, bar_px);
       const ProfileSamplingOptions so = store.fitted_in_view(refs[i], frames[i], sampling_for(mo, bar_px));
       profiles.push_back(store.sample(refs[i], frames[i], so));
+      if (!profiles.back().in_view) continue;
       const Vec2 dir = across_dir(frames[i], refs[i].orientation);
-      if (profiles.back().in_view)
-        samples.push_back({&profiles.back().data, refs[i].bar_width_mm(), dot(dir, common) / frames[i].px_per_mm});
+      samples.push_back({&profiles.back().data, refs[i].bar_width_mm(), dot(dir, common) / frames[i].px_per_mm});
+      sampled.push_back(i);
     }
     if (samples.size() < kMinGroupPatterns) continue;
-    const std::optional<double> shift_px = common_shift_px(samples, D.light_bars, 1.5 * max_bar_px);
-    if (!shift_px) continue;
-    for (const size_t i : members)
-      frames[i].center_px = frames[i].center_px + *shift_px * common;
+    const std::vector<std::optional<double>> shifts_px = shared_shifts_px(samples, D.light_bars, 1.5 * max_bar_px);
+    for (size_t k = 0; k < sampled.size(); ++k)
+      if (shifts_px[k]) frames[sampled[k]].center_px = frames[sampled[k]].center_px + *shifts_px[k] * common;
   }
 }
 
@@ -129,10 +131,11 @@ void shift_predicted_groups(const ChartDetection& D, const std::vector<PatternRe
 //   patterns (~3 px per bar, m ~ 0.1) the correlation can lock half a bar
 //   off while the binarised bars' centroid was right.
 // - a predicted pattern: the frame centred on its data. Its column or the
-//   nesting places it first (its group moved as a whole by
-//   shift_predicted_groups), but a lens's distortion moves each nested
-//   pattern a little too: dev_03's group 7 V triplets lie a px (0.4 bar)
-//   off their nested prediction, where bars of m 0.7 read m ~ 0.
+//   nesting places it first (a nested group then moved together by
+//   shift_predicted_groups), but a lens's distortion moves each pattern a
+//   little too: before the group's shift, dev_03's group 7 V triplets lay
+//   a px (0.4 bar) off their nested prediction, where bars of m 0.7 read
+//   m ~ 0.
 //
 // `shifts` records, per profile the shift search ran on, the shift it chose
 // (mm along u): a live sequence's track keeps where each pattern's fit

@@ -23,9 +23,9 @@ using ShiftLog = std::vector<std::pair<const ProfileData*, double>>;
 std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vector<PatternRef>& refs,
                                          const PlacementStore& store, const MeasureOptions& mo);
 
-// The predicted patterns of each group and orientation (four or more)
-// moved together across their bars, where their profiles agree on a shift
-// (common_shift_px); the other frames are left as they are.
+// The nested patterns of each group and orientation (four or more) moved
+// across their bars, each by the shift the others' profiles agree on
+// (shared_shifts_px); the other frames are left as they are.
 void shift_predicted_groups(const ChartDetection& D, const std::vector<PatternRef>& refs,
                             std::vector<PatternFrame>& frames, const PlacementStore& store,
                             const MeasureOptions& mo);

@@ -78,6 +78,7 @@ struct BarPattern {
   bool light_bars = false;  // bars brighter than the ground (negative chart)
   std::array<Vec2, 3> bar_centers_px{};
   bool predicted = false;   // not found but placed by its column or the nesting (see ChartDetection)
+  bool nested = false;      // predicted by the nesting: a coarser pair's pattern scaled by 1/4
 };
 
 enum class ChartAnchor { none, largest_group, px_per_mm, arrangement, printed_numbers };
