@@ -195,26 +195,22 @@ std::vector<std::optional<double>> shared_shifts_px(const std::vector<ShiftSampl
     // Whether: the whole group there (a pattern's data at a place its own
     // noise did not choose are unbiased; the pattern best seen must agree
     // too: left out, the faint rest can line up on the next element's
-    // bars, 1.5 bars along a column). Only where the bars show clearly
-    // and surely, and far better than where they were placed:
+    // bars, 1.5 bars along a column). Only where the bars show clearly,
+    // in several patterns, and far better than where they were placed:
     // - a mean contrast of one rms or more (the groups moved on real
     //   captures reach 1.2-2.2; those left where predicted, 0.1-0.55);
     // - half an rms a pattern more than unshifted;
-    // - a summed significance of kMinSignificance (on noise alone, a
-    //   standard normal at each trial, rarely above 4 at the best of them;
-    //   on real captures the bins' noise model understates the texture,
-    //   and it reads 5-14 where there are no bars to line up, so the
-    //   contrast decides there);
-    // - two patterns or more that show their bars there on their own (a
-    //   contrast of one rms, 4 sigma): one pattern lines up as well a
-    //   period away.
-    constexpr double kMinSignificance = 5;
+    // - two patterns or more that show their bars there on their own, by
+    //   one rms and by 4 sigma of the bins' noise: one pattern lines up as
+    //   well a period away, and noise alone, a standard normal at each
+    //   trial, seldom reaches 4 sigma in two patterns at once. (On real
+    //   captures the bins' noise model understates the texture: summed
+    //   over a group it reads 5-14 sigma where there are no bars to line
+    //   up, so the contrast over the rms decides there.)
     const double effect_there = sum_but(effect, best, n);
     int clear = 0;
     for (size_t j = 0; j < n; ++j) clear += usable[j] && effect[j][best] >= 1 && z[j][best] >= 4;
-    if (effect_there < count || effect_there - sum_but(effect, zero, n) < 0.5 * count ||
-        sum_but(z, best, n) / std::sqrt(count) < kMinSignificance || clear < 2)
-      continue;
+    if (effect_there < count || effect_there - sum_but(effect, zero, n) < 0.5 * count || clear < 2) continue;
     out[i] = (static_cast<int>(best) - steps) * kStepPx;
   }
   return out;

@@ -106,8 +106,8 @@ struct ShiftSample {
 // the sum of their bar-against-gap contrasts (bars and gaps of the triplet
 // only) is highest there, so that a pattern's own noise cannot place it.
 // nullopt unless the whole group shows its bars there clearly (over each
-// profile's rms about its trend), significantly (by the bins' standard
-// errors), in two patterns or more, and far better than unshifted
+// profile's rms about its trend), two patterns or more of it on their own
+// (also by 4 of the bins' standard errors), and far better than unshifted
 // (chart_frames.cpp).
 std::vector<std::optional<double>> shared_shifts_px(const std::vector<ShiftSample>& samples, bool light,
                                                     double max_px);
