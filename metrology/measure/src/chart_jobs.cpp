@@ -36,15 +36,12 @@ constexpr size_t kScaleSamples = 8;
 std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vector<PatternRef>& refs,
                                          const PlacementStore& store, const MeasureOptions& mo) {
   std::vector<PatternFrame> frames;
-  std::vector<ProfileSamplingOptions> sampling;
   std::vector<size_t> coarse[2];  // [vertical bars]: indices into refs
   for (size_t i = 0; i < refs.size(); ++i) {
     const PatternRef& r = refs[i];
-    const double px_per_bar = 0.5 * D.patterns[r.pattern].period_px;
-    const PatternFrame detected = frame_of(D.patterns[r.pattern], r.orientation, r.lp_per_mm);
-    sampling.push_back(store.fitted_in_view(r, detected, sampling_for(mo, px_per_bar)));
-    frames.push_back(detected);
-    if (px_per_bar >= 4 && !r.lone) coarse[r.orientation == BarOrientation::vertical_bars].push_back(i);
+    frames.push_back(frame_of(D.patterns[r.pattern], r.orientation, r.lp_per_mm));
+    if (0.5 * D.patterns[r.pattern].period_px >= 4 && !r.lone)
+      coarse[r.orientation == BarOrientation::vertical_bars].push_back(i);
   }
   std::vector<std::pair<Vec2, double>> scale_samples[2];
   for (int o = 0; o < 2; ++o) {
@@ -53,13 +50,15 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
     });
     for (size_t k = 0; k < coarse[o].size() && scale_samples[o].size() < kScaleSamples; ++k) {
       const size_t i = coarse[o][k];
+      const double px_per_bar = 0.5 * D.patterns[refs[i].pattern].period_px;
+      ProfileSamplingOptions so = store.fitted_in_view(refs[i], frames[i], sampling_for(mo, px_per_bar));
       // Centred first, its margin fitted again (pattern_jobs centres every
       // pattern at the field's scale).
       if (!D.patterns[refs[i].pattern].predicted) {
-        frames[i] = store.recentre(refs[i], frames[i], sampling[i]);
-        sampling[i] = store.fitted_in_view(refs[i], frames[i], sampling[i]);
+        frames[i] = store.recentre(refs[i], frames[i], so);
+        so = store.fitted_in_view(refs[i], frames[i], so);
       }
-      const SampledProfile p = store.sample(refs[i], frames[i], sampling[i]);
+      const SampledProfile p = store.sample(refs[i], frames[i], so);
       if (!p.in_view) continue;
       ProfileFitOptions fo;
       fo.fit_contrast = true;
