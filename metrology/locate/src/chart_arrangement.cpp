@@ -47,8 +47,11 @@ int h_side(int n, bool generated_style) { return generated_style || column_of(n)
 // Every hypothesis (phase, mirror, which way is down, maker's style) is
 // scored by how many of these observations it explains; the best wins when
 // it explains nearly all and clearly more than any other phase or
-// handedness.
-void recognise_arrangement(ChartDetection& D, const ScaleField& field) {
+// handedness. When several explain nearly all alike, they are the `ways`
+// it may fit (see the header).
+void recognise_arrangement(ChartDetection& D, const ScaleField& field,
+                           std::vector<ChartDetection::Arrangement>* ways) {
+  if (ways) ways->clear();
   auto& A = D.arrangement;
   const std::vector<ChartElement>& E = D.elements;
   if (E.size() < 2) {
@@ -118,17 +121,27 @@ void recognise_arrangement(ChartDetection& D, const ScaleField& field) {
                          best.matched, checked);
     return;
   }
+  const auto as_arrangement = [&](const Hyp& h) {
+    ChartDetection::Arrangement way = A;
+    way.recognised = true;
+    way.phase = h.phase;
+    way.mirrored = h.mirrored;
+    way.generated_style = h.generated;
+    way.down_px = double(h.down) * y_axis;
+    way.steps_matched = h.matched;
+    return way;
+  };
   if (best.matched - runner_up < 3) {
     A.note = fmt::format("arrangement not recognised: the elements found fit it in more than one way ({} and {} "
                          "of {} observations); too little of the chart is in view",
                          best.matched, runner_up, checked);
+    if (!ways) return;
+    for (const Hyp& h : best_per)
+      if (h.matched == best.matched) ways->push_back(as_arrangement(h));
+    if (ways->size() > kMaxArrangementWays) ways->clear();
     return;
   }
-  A.recognised = true;
-  A.phase = best.phase;
-  A.mirrored = best.mirrored;
-  A.generated_style = best.generated;
-  A.down_px = double(best.down) * y_axis;
+  A = as_arrangement(best);
 }
 
 // See ChartDetection::predicted_elements.

@@ -151,6 +151,48 @@ TEST_CASE("arrangement: refused when the elements found do not fix it") {
   }
 }
 
+TEST_CASE("arrangement: the ways it fits when the elements found fit it alike in several") {
+  // The even group's element 1 and its column (dev_01, dev_02): as found,
+  // and mirrored as an even group's element 6 followed by the odd group's
+  // column, they fit alike; both ways are offered for the printed numbers.
+  for (double rot : {0.0, 191.0})
+    for (bool mirrored : {false, true}) {
+      CAPTURE(rot);
+      CAPTURE(mirrored);
+      View v;
+      v.rotation_deg = rot;
+      v.mirrored = mirrored;
+      Built b = build(range(0, 5), v);
+      std::vector<ChartDetection::Arrangement> ways;
+      recognise_arrangement(b.D, b.field, &ways);
+      CHECK_FALSE(b.D.arrangement.recognised);
+      REQUIRE(ways.size() >= 2);
+      REQUIRE(ways.size() <= kMaxArrangementWays);
+      const auto truth = std::find_if(ways.begin(), ways.end(), [&](const ChartDetection::Arrangement& w) {
+        return w.phase == 0 && w.mirrored == mirrored;
+      });
+      REQUIRE(truth != ways.end());
+      const double a = rot * M_PI / 180;
+      CHECK(dot(truth->down_px, Vec2{-std::sin(a), std::cos(a)}) > 0.99);
+      for (const ChartDetection::Arrangement& w : ways) {
+        CHECK(w.recognised);
+        CHECK(w.steps_matched == ways.front().steps_matched);
+        CHECK(w.steps_checked == w.steps_matched);
+      }
+    }
+  SUBCASE("a recognised or refused arrangement offers none") {
+    std::vector<ChartDetection::Arrangement> ways(1);
+    Built whole = build(range(1, 16), View{});
+    recognise_arrangement(whole.D, whole.field, &ways);
+    CHECK(whole.D.arrangement.recognised);
+    CHECK(ways.empty());
+    ways.resize(1);
+    Built three = build({7, 8, 9}, View{});
+    recognise_arrangement(three.D, three.field, &ways);
+    CHECK(ways.empty());
+  }
+}
+
 TEST_CASE("column ends: a recognised arrangement ends a column at element 6, anchored or not") {
   // The outer pair's even group, elements 2..6 (n 1..5): its column ends at
   // element 6, where the odd group's element 1 stands elsewhere (dev_03: a

@@ -223,9 +223,11 @@ double median_series_level(const ChartDetection& D, const ScaleField& field,
 // The anchor from the arrangement (chart_detect.h): the index modulo 12 and
 // the handedness from the elements' positions (D.elements), the group from
 // the labels. `relative` says what unanchored indices mean.
-void anchor_by_arrangement(ChartDetection& D, const std::vector<ChartElement>& kept,
-                           const ScaleField& field, const cv::Mat& img, const std::string& relative) {
-  recognise_arrangement(D, field);
+// `ways`: the ways it fits when it fits in several (recognise_arrangement).
+void anchor_by_arrangement(ChartDetection& D, const std::vector<ChartElement>& kept, const ScaleField& field,
+                           const cv::Mat& img, const std::string& relative,
+                           std::vector<ChartDetection::Arrangement>& ways) {
+  recognise_arrangement(D, field, &ways);
   auto& A = D.arrangement;
   if (!A.recognised) {
     D.anchor_description = "none (" + A.note + "): " + relative;
@@ -289,6 +291,47 @@ bool anchor_by_options(ChartDetection& D, double largest_period_px, const ChartD
   return false;
 }
 
+// When the arrangement fits the elements found in several ways: the
+// printed numbers read as each way has them stand and turn (upright, not
+// mirrored). A way is chosen when the numbers fix the group under it and
+// under no way with another index (a wrong way reads its numbers mirrored
+// or where none stand, and a group number of the wrong parity fits none).
+bool anchor_among_ways(ChartDetection& D, const std::vector<ChartElement>& kept,
+                       const std::vector<ChartElement>& partial, const cv::Mat& img,
+                       const std::vector<ChartDetection::Arrangement>& ways, std::string& note) {
+  std::optional<int> index;
+  const ChartDetection::Arrangement* chosen = nullptr;
+  std::string chosen_note;
+  for (const ChartDetection::Arrangement& way : ways) {
+    ChartDetection W = D;
+    W.arrangement = way;
+    std::string way_note;
+    if (!anchor_by_printed_numbers(W, kept, partial, img, way.phase, way_note)) continue;
+    if (index && *index != W.largest_index) {
+      note = fmt::format("the arrangement fits the elements found in {} ways, and the printed numbers fit more than "
+                         "one of them",
+                         ways.size());
+      return false;
+    }
+    if (!index) index = W.largest_index, chosen = &way, chosen_note = way_note;
+  }
+  if (!index) {
+    note = fmt::format("the arrangement fits the elements found in {} ways, and the printed numbers fix the group "
+                       "under none of them",
+                       ways.size());
+    return false;
+  }
+  D.arrangement = *chosen;
+  D.arrangement.note = fmt::format("the standard arrangement fits the elements found in {} ways ({} of {} "
+                                   "observations each); the printed numbers chose this one{}",
+                                   ways.size(), chosen->steps_matched, chosen->steps_checked,
+                                   chosen->mirrored ? " (mirrored)" : "");
+  D.largest_index = *index;
+  D.anchor = ChartAnchor::printed_numbers;
+  D.anchor_description = "printed numbers: " + D.arrangement.note + ": " + chosen_note;
+  return true;
+}
+
 // The absolute index of relative index 0 (D.largest_index), from the
 // options or else the arrangement, and what fixed it.
 void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const std::vector<ChartElement>& partial,
@@ -300,10 +343,16 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const std:
         "groups and elements are relative to the largest element found, which is called group 0 element 1, and "
         "lp/mm are relative to its frequency; give --largest-group or --px-per-mm for absolute values";
     D.elements = kept;
-    anchor_by_arrangement(D, kept, field, img, relative);
+    std::vector<ChartDetection::Arrangement> ways;
+    anchor_by_arrangement(D, kept, field, img, relative, ways);
     if (D.anchor != ChartAnchor::none) return;
     // Another typeface than the generator's: read the numbers by OCR.
     std::string note;
+    if (!ways.empty()) {
+      if (anchor_among_ways(D, kept, partial, img, ways, note)) return;
+      D.anchor_description += "; printed numbers: " + note;
+      note.clear();
+    }
     const std::optional<int> phase =
         D.arrangement.recognised ? std::optional<int>(D.arrangement.phase) : std::nullopt;
     if (anchor_by_printed_numbers(D, kept, partial, img, phase, note)) {

@@ -108,7 +108,16 @@ struct ScaleField {
 // The standard arrangement (chart_arrangement.cpp, chart_detect.h).
 
 // Phase and handedness of D.elements into D.arrangement (see chart_detect.h).
-void recognise_arrangement(ChartDetection& D, const ScaleField& field);
+// When the elements found fit the arrangement equally well in two to
+// kMaxArrangementWays ways (too little of the chart in view: a column and
+// one more element fit as an even group's element 1 and its column, and
+// mirrored as an even group's element 6 and the odd group's column),
+// D.arrangement stays unrecognised and `ways` receives each of them,
+// recognised, for the printed numbers to choose from; otherwise `ways` is
+// left empty.
+constexpr size_t kMaxArrangementWays = 4;
+void recognise_arrangement(ChartDetection& D, const ScaleField& field,
+                           std::vector<ChartDetection::Arrangement>* ways = nullptr);
 
 // The group number printed above the column that starts with element `e`
 // (n_mod12: its index modulo 12, 1 or 6), of the parity of parity_group, or
@@ -164,6 +173,13 @@ void predict_nested_pairs(ChartDetection& D, Vec2 centre_px, int cols, int rows)
 bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept,
                                const std::vector<ChartElement>& partial, const cv::Mat& img,
                                std::optional<int> phase, std::string& note);
+
+// The image without texture finer than a printed stroke (a fibre bundle's
+// honeycomb), for reading the numbers when they cannot be read in the
+// image itself: dark and light detail narrower than a disc of radius
+// bar_px / 3 (bar_px: the finest element's bar width, px; radius 1 to 4 px)
+// is removed, wider strokes and the ground keep their levels.
+cv::Mat without_fine_texture(const cv::Mat& img, double bar_px);
 
 // Printed numbers shorter than this (px) are not evidence: Tesseract reads
 // a blurred 7 x 11 px blob as a confident "4" (dev_04).

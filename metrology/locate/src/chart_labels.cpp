@@ -306,6 +306,23 @@ ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, 
 
 }  // namespace
 
+// A fibre bundle (dev_01, dev_02) lays a honeycomb of 5-6 px over the
+// chart that breaks the ink into dots and the ground into a net, so that
+// no number is found. A grey closing, then an opening, with a disc of
+// radius a third of the finest bar's width removes dark, then light,
+// detail narrower than the disc; a numeral's strokes, about as wide as a
+// bar, pass. (A quarter left a mottle of a fifth of the honeycomb's
+// contrast where the nearest fibre core lies beyond the disc, half the
+// lattice's period away, and the 16-bit copy of dev_02 read no number.)
+cv::Mat without_fine_texture(const cv::Mat& img, double bar_px) {
+  const int radius = std::clamp(static_cast<int>(std::lround(bar_px / 3)), 1, 4);
+  const cv::Mat disc = cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * radius + 1, 2 * radius + 1});
+  cv::Mat out;
+  cv::morphologyEx(img, out, cv::MORPH_CLOSE, disc, {-1, -1}, 1, cv::BORDER_REPLICATE);
+  cv::morphologyEx(out, out, cv::MORPH_OPEN, disc, {-1, -1}, 1, cv::BORDER_REPLICATE);
+  return out;
+}
+
 // Numbers several times larger than OCR needs (a single element filling a
 // 4K frame: bars 280 px wide) are read octaves down a Gaussian pyramid,
 // where the finest element's bars are still >= 12 px wide (a number is
@@ -320,12 +337,22 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   for (const ChartElement& e : kept) bar_px = std::min(bar_px, 0.5 * e.period_px);
   int levels = 0;
   while (bar_px * std::exp2(-(levels + 1)) >= 12 && std::min(img.cols, img.rows) >> (levels + 1) >= 64) ++levels;
-  if (levels == 0) return anchor_at_scale(D, kept, partial, img, phase, note);
   cv::Mat small = img;
   for (int l = 0; l < levels; ++l) cv::pyrDown(small, small);
   std::vector<ChartElement> kept_small = kept, partial_small = partial;
-  ChartDetection S = halved(D, kept_small, partial_small, levels);
-  const bool anchored = anchor_at_scale(S, kept_small, partial_small, small, phase, note);
+  ChartDetection S = levels == 0 ? D : halved(D, kept_small, partial_small, levels);
+  bool anchored = anchor_at_scale(S, kept_small, partial_small, small, phase, note);
+  // Only with the phase known: the numbers are then read upright as the
+  // arrangement turns them, and a group number must fit the group's
+  // parity. Read in the eight axis turns instead, a cleaned 20-degree
+  // tilted fibre frame gave three numbers that fit a group too many (the
+  // 16-bit copy of dev_02).
+  if (!anchored && phase) {
+    std::string smooth_note;
+    anchored = anchor_at_scale(S, kept_small, partial_small,
+                               without_fine_texture(small, bar_px * std::exp2(-levels)), phase, smooth_note);
+    if (anchored) note = "with texture finer than the strokes removed, " + smooth_note;
+  }
   D.largest_index = S.largest_index;
   return anchored;
 }
