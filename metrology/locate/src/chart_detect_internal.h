@@ -209,11 +209,11 @@ cv::Mat upright_patch(const cv::Mat& img, const ChartDetection::Arrangement& A, 
 // modulo 12), the group numbers printed above the columns and above an
 // even group's element 1 (also a partial one, whose H triplet may be cut),
 // read upright where the arrangement puts them: the largest element's
-// absolute index when they agree on one, else nullopt; `note` says what
-// was read (chart_group_labels.cpp).
+// absolute index when they agree on one, read at least min_readings
+// times, else nullopt; `note` says what was read (chart_group_labels.cpp).
 std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const ChartDetection& D,
                                                    const std::vector<ChartElement>& kept,
                                                    const std::vector<ChartElement>& partial, const cv::Mat& img,
-                                                   int phase, std::string& note);
+                                                   int phase, std::string& note, int min_readings = 1);
 
 }  // namespace tactres::locate_detail

@@ -132,7 +132,7 @@ std::optional<Site> element_one_site(const ChartDetection& D, const ChartElement
 std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const ChartDetection& D,
                                                    const std::vector<ChartElement>& kept,
                                                    const std::vector<ChartElement>& partial, const cv::Mat& img,
-                                                   int phase, std::string& note) {
+                                                   int phase, std::string& note, int min_readings) {
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
   std::vector<Site> sites;
   for (const std::vector<ChartElement>* list : {&kept, &partial})
@@ -160,11 +160,11 @@ std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const Ch
   for (const auto& [j, n] : votes)
     if (n > best) others += best, best = n, best_j = j;
     else others += n;
-  if (best == 0 || (others > 0 && (best < 2 || best < 2 * others))) {
+  if (best == 0 || best < min_readings || (others > 0 && (best < 2 || best < 2 * others))) {
     note = read == 0 ? "no group number read above the columns or element 1"
                      : fmt::format("{} group number(s) read above the columns or element 1, but they do not agree on "
-                                   "the group",
-                                   read);
+                                   "the group{}",
+                                   read, best > 0 && best < min_readings ? fmt::format(" {} times", min_readings) : "");
     return std::nullopt;
   }
   const int k = phase + 12 * best_j, g = floor_div6(k);

@@ -226,9 +226,10 @@ std::optional<Choice> choose_with_phase(const std::vector<std::pair<Choice, std:
 
 // The anchor from the numbers read in `img` at the detection's own scale;
 // the numbers beside the elements are read beside the partial ones too.
+// At least min_readings of them must fit the anchor chosen.
 bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
                      const std::vector<ChartElement>& partial, const cv::Mat& img, std::optional<int> phase,
-                     std::string& note) {
+                     std::string& note, int min_readings = 1) {
   std::string error;
   LabelReader* reader = thread_reader(error);
   if (!reader) {
@@ -239,7 +240,7 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
     // First where the arrangement puts the group numbers.
     std::string placed_note;
     if (const std::optional<int> k =
-            index_from_placed_group_numbers(*reader, D, kept, partial, img, *phase, placed_note)) {
+            index_from_placed_group_numbers(*reader, D, kept, partial, img, *phase, placed_note, min_readings)) {
       D.largest_index = *k;
       note = placed_note;
       return true;
@@ -265,7 +266,7 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
   int best_n = 0, second = 0;
   const std::optional<Choice> best =
       phase ? choose_with_phase(by_o, *phase) : choose_free(by_o, best_n, second);
-  if (!best) {
+  if (!best || best->s.total() < min_readings) {
     int credible = 0;
     for (const auto& r : read) credible += !r.empty();
     note += credible == 0 ? fmt::format("no printed number read ({} candidate boxes)", boxes.size())
@@ -346,11 +347,13 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   // arrangement turns them, and a group number must fit the group's
   // parity. Read in the eight axis turns instead, a cleaned 20-degree
   // tilted fibre frame gave three numbers that fit a group too many (the
-  // 16-bit copy of dev_02).
+  // 16-bit copy of dev_02). And two readings must fit, not one: a cleaned
+  // digit is rounder, and one "6" of dev_02, cleaned a little more, read
+  // as a lone "8" that fit two groups too high.
   if (!anchored && phase) {
     std::string smooth_note;
     anchored = anchor_at_scale(S, kept_small, partial_small,
-                               without_fine_texture(small, bar_px * std::exp2(-levels)), phase, smooth_note);
+                               without_fine_texture(small, bar_px * std::exp2(-levels)), phase, smooth_note, 2);
     if (anchored) note = "with texture finer than the strokes removed, " + smooth_note;
   }
   D.largest_index = S.largest_index;
