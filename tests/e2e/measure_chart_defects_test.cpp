@@ -3,10 +3,12 @@
 // analytic truth (docs/CHART.md; helpers in measure_chart_support.h).
 // This part: imperfect captures. Of an element cut by the image edge or
 // half wiped off, the pattern found is measured and the missing one gets a
-// status instead of a measurement; uneven light, vignetting, dust and an
-// 8-bit sRGB JPEG still give the true limits.
+// status instead of a measurement, unless the recognised arrangement
+// places it in view (then it is measured there); uneven light,
+// vignetting, dust and an 8-bit sRGB JPEG still give the true limits.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -78,8 +80,13 @@ TEST_CASE("chart: of elements cut by the image edge the pattern in view is measu
   MESSAGE(cut << " elements cut by the edge, " << D.partial.size() << " reported as partial");
 }
 
-TEST_CASE("chart: of an element with one pattern wiped off, that one gets fit_failed with the reason, the other is measured") {
-  TempDir dir("chart");
+namespace {
+
+// G1E1's V triplet (a square of 8 bar widths about it) of the 36 px/mm
+// chart rolled 3 degrees: `edit` is given that square and the paper's
+// level; the image is then written and measured with `o`.
+ChartRun measure_with_g1e1_v_edited(const TempDir& dir, const std::function<void(cv::Mat, double)>& edit,
+                                    const ChartMeasureOptions& o) {
   ChartScene c;
   c.view = view_at(36);
   c.view.roll_deg = 3;
@@ -87,7 +94,6 @@ TEST_CASE("chart: of an element with one pattern wiped off, that one gets fit_fa
   const RenderResult r = render_scene(s, chart(), pinhole_camera());
   ChartRun run;
   run.truth = compute_truth(s, chart(), pinhole_camera());
-  // Wipe G1E1's vertical-bar triplet: paint its box with the paper level.
   const TruthElement* tv = truth_for(run.truth, 1, 1, BarOrientation::vertical_bars);
   REQUIRE(tv);
   cv::Mat img = r.image.clone();
@@ -96,12 +102,21 @@ TEST_CASE("chart: of an element with one pattern wiped off, that one gets fit_fa
                      static_cast<int>(2 * half), static_cast<int>(2 * half));
   double lo = 0, paper = 0;
   cv::minMaxLoc(img(box), &lo, &paper);
-  img(box).setTo(paper);
-  run.file = dir.path / "wiped.tif";
+  edit(img(box), paper);
+  run.file = dir.path / "edited.tif";
   write_image(run.file, img);
+  run.result = measure_chart(load_image(run.file), o);
+  return run;
+}
+
+}  // namespace
+
+TEST_CASE("chart: of an element with one pattern wiped off, that one gets fit_failed with the reason, the other is measured") {
+  TempDir dir("chart");
+  // Wipe G1E1's vertical-bar triplet: paint its box with the paper level.
   ChartMeasureOptions o;
   o.detect.px_per_mm = 36;
-  run.result = measure_chart(load_image(run.file), o);
+  const ChartRun run = measure_with_g1e1_v_edited(dir, [](cv::Mat box, double paper) { box.setTo(paper); }, o);
   const ChartDetection& D = run.result.detection;
   const Measurement& M = run.result.measurement;
   REQUIRE(D.found);
@@ -139,6 +154,79 @@ TEST_CASE("chart: of an element with one pattern wiped off, that one gets fit_fa
   const Limits truth = visible_truth_limits(run.truth, Criterion{});
   CHECK(discrete_limit_agrees(M.horizontal, truth.horizontal));
   CHECK(discrete_limit_agrees(M.vertical, truth.vertical));
+}
+
+namespace {
+
+// A fibre bundle's transmission at image pixel (x, y): bright cores
+// (Gaussian, sigma 1 px) on a hexagonal lattice of 5 px over a dark net,
+// mean about 1.
+double honeycomb(int x, int y) {
+  const double period_px = 5, row_px = period_px * std::sqrt(3.0) / 2;
+  double t = 0.2;
+  const int r0 = static_cast<int>(std::floor(y / row_px));
+  for (int r = r0 - 1; r <= r0 + 2; ++r) {
+    const double cy = r * row_px, shift = (r % 2 != 0) ? 0.5 * period_px : 0;
+    const int c0 = static_cast<int>(std::floor((x - shift) / period_px));
+    for (int c = c0 - 1; c <= c0 + 2; ++c) {
+      const double cx = c * period_px + shift;
+      t += 1.4 * std::exp(-((x - cx) * (x - cx) + (y - cy) * (y - cy)) / 2.0);
+    }
+  }
+  return t;
+}
+
+}  // namespace
+
+TEST_CASE("chart: with the arrangement recognised, a pattern not found beside its partner is placed and measured there") {
+  // G1E1's V triplet seen through a fibre bundle's honeycomb (bright
+  // cores on a dark net, as on dev_02), which the binarisation breaks into
+  // dots, or wiped off; no hint, so the arrangement anchors the chart and
+  // says where the V triplet stands.
+  for (const bool wiped : {false, true}) {
+    CAPTURE(wiped);
+    TempDir dir("chart");
+    const ChartRun run = measure_with_g1e1_v_edited(
+        dir,
+        [&](cv::Mat box, double paper) {
+          if (wiped) box.setTo(paper);
+          else box.forEach<float>([](float& v, const int* yx) { v *= static_cast<float>(honeycomb(yx[1], yx[0])); });
+        },
+        ChartMeasureOptions{});
+    const TruthElement* tv = truth_for(run.truth, 1, 1, BarOrientation::vertical_bars);
+    REQUIRE(tv);
+    const ChartDetection& D = run.result.detection;
+    const Measurement& M = run.result.measurement;
+    REQUIRE(D.found);
+    REQUIRE(M.usable);
+    REQUIRE(D.anchor == ChartAnchor::arrangement);
+    CHECK(D.partners_placed == 1);
+    const nlohmann::json j = chart_to_json(D);
+    REQUIRE(j["partners_placed"].size() == 1);
+    CHECK(j["partners_placed"][0]["group"] == 1);
+    CHECK(j["partners_placed"][0]["element"] == 1);
+    CHECK(j["partners_placed"][0]["placed"] == "vertical_bars");
+    CHECK(j["partial_elements"].empty());
+    // Placed where it stands: within half a bar of the truth.
+    const ChartElement* e11 = nullptr;
+    for (const ChartElement& e : D.elements)
+      if (e.group == 1 && e.element == 1) e11 = &e;
+    REQUIRE(e11);
+    CHECK(D.patterns[e11->v].predicted);
+    CHECK(norm(D.patterns[e11->v].center_px - Vec2{tv->center_px.x, tv->center_px.y}) < 0.5 * tv->px_per_bar);
+    for (const ElementResult& e : M.elements) {
+      if (e.group != 1 || e.element != 1 || e.orientation != BarOrientation::vertical_bars) continue;
+      CAPTURE(e.note);
+      if (!wiped) {
+        // Averaged along the bars, the honeycomb leaves the profile.
+        CHECK(e.status == ElementStatus::ok);
+        CHECK(std::abs(e.m - tv->m) < 3 * e.m_sigma + 0.05);
+      } else {
+        CHECK(e.status != ElementStatus::ok);
+        CHECK_FALSE(e.resolved);
+      }
+    }
+  }
 }
 
 namespace {

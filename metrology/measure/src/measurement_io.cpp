@@ -204,10 +204,18 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
   j["patterns_found"] = d.patterns.size();
   // Found (binarised) elements, and apart from them those placed by their
   // column or the nesting of the pairs (measured the same way).
-  nlohmann::json placed = nlohmann::json::array();
-  for (const ChartElement& e : d.elements)
-    if (e.h >= 0 && d.patterns[e.h].predicted) placed.push_back({{"group", e.group}, {"element", e.element}});
+  // An element of which one pattern was found and the other placed beside
+  // it counts as found; the placed pattern is listed apart.
+  nlohmann::json placed = nlohmann::json::array(), partners = nlohmann::json::array();
+  for (const ChartElement& e : d.elements) {
+    const bool h_placed = e.h >= 0 && d.patterns[e.h].predicted, v_placed = e.v >= 0 && d.patterns[e.v].predicted;
+    if (h_placed && v_placed) placed.push_back({{"group", e.group}, {"element", e.element}});
+    else if (h_placed || v_placed)
+      partners.push_back({{"group", e.group}, {"element", e.element},
+                          {"placed", h_placed ? "horizontal_bars" : "vertical_bars"}});
+  }
   j["elements_found"] = d.elements.size() - placed.size();
+  j["partners_placed"] = partners;
   j["unpaired_patterns"] = d.unpaired_patterns;
   j["single_pattern"] = d.single_pattern;  // one triplet in view, measured in the image's orientation
   j["predicted_elements"] = d.predicted_elements;

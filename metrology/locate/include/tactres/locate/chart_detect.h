@@ -96,7 +96,8 @@ struct ChartElement {
   // status, never measured or resolved: `out_of_view` when it lies outside
   // the image (the element is partly out of view), `fit_failed` when it
   // lies inside but was not found there. `partial_reason` says which, in
-  // words.
+  // words. (With the arrangement recognised, a missing pattern inside the
+  // image is placed and measured instead: ChartDetection::partners_placed.)
   enum class Partial { no, partner_out_of_view, partner_not_found } partial = Partial::no;
   std::string partial_reason;
 };
@@ -125,6 +126,11 @@ struct ChartDetection {
   // Bars too faint to binarise are still measured there, so that the limit
   // can be bracketed.
   int predicted_elements = 0;
+  // Elements of which one pattern was found and the other placed beside
+  // it (predicted): with the arrangement recognised, the side and the
+  // distance (separation_periods) are known, so a pattern in view that was
+  // not found is measured where it stands; the found one keeps its place.
+  int partners_placed = 0;
   // Elements of which only one pattern was found (ChartElement::partial):
   // lone, well-sampled patterns whose period falls on the series at an
   // index that no element holds. Kept apart from `elements` (which all have
