@@ -160,7 +160,7 @@ namespace {
 
 // A fibre bundle's transmission at image pixel (x, y): bright cores
 // (Gaussian, sigma 1 px) on a hexagonal lattice of 5 px over a dark net,
-// mean about 1.
+// mean about 0.6.
 double honeycomb(int x, int y) {
   const double period_px = 5, row_px = period_px * std::sqrt(3.0) / 2;
   double t = 0.2;
@@ -214,8 +214,10 @@ TEST_CASE("chart: with the arrangement recognised, a pattern not found beside it
     REQUIRE(e11);
     CHECK(D.patterns[e11->v].predicted);
     CHECK(norm(D.patterns[e11->v].center_px - Vec2{tv->center_px.x, tv->center_px.y}) < 0.5 * tv->px_per_bar);
+    int reported = 0;
     for (const ElementResult& e : M.elements) {
       if (e.group != 1 || e.element != 1 || e.orientation != BarOrientation::vertical_bars) continue;
+      ++reported;
       CAPTURE(e.note);
       if (!wiped) {
         // Averaged along the bars, the honeycomb leaves the profile.
@@ -226,6 +228,11 @@ TEST_CASE("chart: with the arrangement recognised, a pattern not found beside it
         CHECK_FALSE(e.resolved);
       }
     }
+    CHECK(reported == 1);
+    // Measured or not, the placed triplet leaves the limits the truth's.
+    const Limits truth = visible_truth_limits(run.truth, Criterion{});
+    CHECK(discrete_limit_agrees(M.horizontal, truth.horizontal));
+    CHECK(discrete_limit_agrees(M.vertical, truth.vertical));
   }
 }
 

@@ -47,8 +47,8 @@ int h_side(int n, bool generated_style) { return generated_style || column_of(n)
 // Every hypothesis (phase, mirror, which way is down, maker's style) is
 // scored by how many of these observations it explains; the best wins when
 // it explains nearly all and clearly more than any other phase or
-// handedness. When several explain nearly all alike, they are the `ways`
-// it may fit (see the header).
+// handedness. When several come that close, they are the `ways` it may
+// fit (see the header).
 void recognise_arrangement(ChartDetection& D, const ScaleField& field,
                            std::vector<ChartDetection::Arrangement>* ways) {
   if (ways) ways->clear();
@@ -136,8 +136,10 @@ void recognise_arrangement(ChartDetection& D, const ScaleField& field,
                          "of {} observations); too little of the chart is in view",
                          best.matched, runner_up, checked);
     if (!ways) return;
+    // Every way that makes it ambiguous (within 3 observations of the
+    // best), so that the numbers are read under each of them.
     for (const Hyp& h : best_per)
-      if (h.matched == best.matched) ways->push_back(as_arrangement(h));
+      if (best.matched - h.matched < 3) ways->push_back(as_arrangement(h));
     if (ways->size() > kMaxArrangementWays) ways->clear();
     return;
   }

@@ -154,7 +154,9 @@ TEST_CASE("arrangement: refused when the elements found do not fix it") {
 TEST_CASE("arrangement: the ways it fits when the elements found fit it alike in several") {
   // The even group's element 1 and its column (dev_01, dev_02): as found,
   // and mirrored as an even group's element 6 followed by the odd group's
-  // column, they fit alike; both ways are offered for the printed numbers.
+  // column, they fit alike; every way within 3 observations of the best
+  // (the margin that refuses it) is offered for the printed numbers, the
+  // best first.
   for (double rot : {0.0, 191.0})
     for (bool mirrored : {false, true}) {
       CAPTURE(rot);
@@ -174,10 +176,11 @@ TEST_CASE("arrangement: the ways it fits when the elements found fit it alike in
       REQUIRE(truth != ways.end());
       const double a = rot * M_PI / 180;
       CHECK(dot(truth->down_px, Vec2{-std::sin(a), std::cos(a)}) > 0.99);
+      CHECK(truth->steps_matched == truth->steps_checked);
       for (const ChartDetection::Arrangement& w : ways) {
         CHECK(w.recognised);
-        CHECK(w.steps_matched == ways.front().steps_matched);
-        CHECK(w.steps_checked == w.steps_matched);
+        CHECK(w.steps_matched <= ways.front().steps_matched);
+        CHECK(ways.front().steps_matched - w.steps_matched < 3);
       }
     }
   SUBCASE("a recognised or refused arrangement offers none") {

@@ -108,10 +108,11 @@ struct ScaleField {
 // The standard arrangement (chart_arrangement.cpp, chart_detect.h).
 
 // Phase and handedness of D.elements into D.arrangement (see chart_detect.h).
-// When the elements found fit the arrangement equally well in two to
-// kMaxArrangementWays ways (too little of the chart in view: a column and
-// one more element fit as an even group's element 1 and its column, and
-// mirrored as an even group's element 6 and the odd group's column),
+// When the elements found fit the arrangement in two to
+// kMaxArrangementWays ways about equally well (within 3 observations of
+// the best, which refuses it; too little of the chart in view: a column
+// and one more element fit as an even group's element 1 and its column,
+// and mirrored as an even group's element 6 and the odd group's column),
 // D.arrangement stays unrecognised and `ways` receives each of them,
 // recognised, for the printed numbers to choose from; otherwise `ways` is
 // left empty.
@@ -173,6 +174,18 @@ void predict_nested_pairs(ChartDetection& D, Vec2 centre_px, int cols, int rows)
 bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept,
                                const std::vector<ChartElement>& partial, const cv::Mat& img,
                                std::optional<int> phase, std::string& note);
+
+// Partial elements (ChartElement::partial; chart_partial.cpp): each lone
+// pattern (indices into D.patterns) with >= 4 px per period whose period
+// falls on the series at an index no element of D.elements holds, its
+// missing partner placed beside it on the nearest complete element's side.
+std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::vector<int>& lone,
+                                           const ScaleField& field, const cv::Mat& img);
+// Numbers them by the anchor into D.partial, those an element (found or
+// predicted) holds the index of dropped. With the arrangement recognised
+// the partner's side is the maker's, and a partner in view is placed and
+// its element joins D.elements (ChartDetection::partners_placed).
+void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partial, int cols, int rows);
 
 // The image without texture finer than a printed stroke (a fibre bundle's
 // honeycomb), for reading the numbers when they cannot be read in the

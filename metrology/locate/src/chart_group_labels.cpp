@@ -162,9 +162,12 @@ std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const Ch
     else others += n;
   if (best == 0 || best < min_readings || (others > 0 && (best < 2 || best < 2 * others))) {
     note = read == 0 ? "no group number read above the columns or element 1"
-                     : fmt::format("{} group number(s) read above the columns or element 1, but they do not agree on "
-                                   "the group{}",
-                                   read, best > 0 && best < min_readings ? fmt::format(" {} times", min_readings) : "");
+           : best > 0 && best < min_readings && others == 0
+               ? fmt::format("{} group number(s) read above the columns or element 1, fewer than the {} needed here",
+                             best, min_readings)
+               : fmt::format("{} group number(s) read above the columns or element 1, but they do not agree on the "
+                             "group",
+                             read);
     return std::nullopt;
   }
   const int k = phase + 12 * best_j, g = floor_div6(k);

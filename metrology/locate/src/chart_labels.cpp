@@ -270,6 +270,9 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
     int credible = 0;
     for (const auto& r : read) credible += !r.empty();
     note += credible == 0 ? fmt::format("no printed number read ({} candidate boxes)", boxes.size())
+           : best        ? fmt::format("{} printed number(s) read, of which {} fit the arrangement, fewer than the {} "
+                                       "needed here",
+                                       credible, best->s.total(), min_readings)
            : phase       ? fmt::format("{} printed number(s) read, but no group number fits the arrangement clearly "
                                        "better than another",
                                        credible)

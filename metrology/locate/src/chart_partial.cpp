@@ -1,0 +1,140 @@
+// Partial elements (ChartElement::partial, chart_detect.h): elements of
+// which only one pattern was found, and the placing of the missing one
+// where the recognised arrangement says it stands.
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <opencv2/core.hpp>
+
+#include "chart_detect_internal.h"
+
+namespace tactres::locate_detail {
+
+namespace {
+
+// Where the missing pattern of partial element `e` stands:
+// D.separation_periods along `h_to_v` (the image direction from an H
+// triplet to its V partner) from the found one.
+Vec2 partner_center_px(const ChartDetection& D, const ChartElement& e, Vec2 h_to_v) {
+  const bool is_h = e.h >= 0;
+  const BarPattern& p = D.patterns[is_h ? e.h : e.v];
+  return p.center_px + ((is_h ? 1.0 : -1.0) * D.separation_periods * p.period_px) * h_to_v;
+}
+
+// Whether the missing pattern of partial element `e` would lie in the
+// image (with its strip's margin). Sets e.partial and its reason.
+void place_partner(const ChartDetection& D, ChartElement& e, Vec2 h_to_v, int cols, int rows) {
+  const bool is_h = e.h >= 0;
+  const BarPattern& p = D.patterns[is_h ? e.h : e.v];
+  const Vec2 partner = partner_center_px(D, e, h_to_v);
+  const double r = 2.0 * p.period_px;
+  const bool outside = partner.x - r < 0 || partner.y - r < 0 || partner.x + r > cols - 1 || partner.y + r > rows - 1;
+  e.partial = outside ? ChartElement::Partial::partner_out_of_view : ChartElement::Partial::partner_not_found;
+  e.partial_reason = fmt::format("only the {} pattern was found; the {} pattern {}", is_h ? "horizontal-bar" : "vertical-bar",
+                                 is_h ? "vertical-bar" : "horizontal-bar",
+                                 outside ? "lies outside the image (the element is partly out of view)"
+                                         : "is in the image but was not found there");
+}
+
+// The found pattern of partial element `e` turned a quarter about itself
+// and moved to `center_px`: its partner as the chart draws it, predicted.
+BarPattern predicted_partner(const ChartDetection& D, const ChartElement& e, Vec2 center_px) {
+  const BarPattern& p = D.patterns[e.h >= 0 ? e.h : e.v];
+  BarPattern q = p;
+  q.center_px = center_px;
+  q.bar_dir = perp(p.bar_dir);
+  for (size_t i = 0; i < q.bar_centers_px.size(); ++i) q.bar_centers_px[i] = center_px + perp(p.bar_centers_px[i] - p.center_px);
+  q.predicted = true;
+  q.nested = false;
+  return q;
+}
+
+}  // namespace
+
+// Partial elements (ChartElement::partial): a lone, well-sampled pattern
+// whose period falls on the series at an index no element holds. Its
+// orientation on the chart follows from the nearest complete element
+// (chart x runs from an H triplet to its V partner); its partner would
+// stand D.separation_periods away along chart x. Group and element are
+// left to number_partial_elements (the anchor may not be known yet).
+std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::vector<int>& lone,
+                                           const ScaleField& field, const cv::Mat& img) {
+  std::vector<ChartElement> partial;
+  std::vector<int> taken;
+  for (const ChartElement& e : D.elements) taken.push_back(e.relative_index);
+  const double step = std::log(2.0) / 6;
+  for (int k : lone) {
+    const BarPattern& p = D.patterns[k];
+    if (p.period_px < 4) continue;  // a fine pattern's binarised period is not reliable enough to index it
+    const Vec2 pos = field.position(p.center_px);
+    const double x = (field.level0 + dot(field.g, pos) - std::log(p.period_px)) / step;
+    const int index = static_cast<int>(std::lround(x));
+    if (std::abs(x - index) > 0.3 || index < -6 || std::count(taken.begin(), taken.end(), index)) continue;
+    const ChartElement* near = nullptr;
+    double near_d = 1e300;
+    for (const ChartElement& e : D.elements) {
+      if (D.patterns[e.h].predicted) continue;
+      const double d = norm(D.patterns[e.h].center_px - p.center_px);
+      if (d < near_d) near_d = d, near = &e;
+    }
+    if (!near) continue;
+    const Vec2 d = D.patterns[near->v].center_px - D.patterns[near->h].center_px;
+    const Vec2 ex = (1.0 / norm(d)) * d;
+    ChartElement e;
+    (std::abs(dot(p.bar_dir, ex)) > std::cos(30 * M_PI / 180) ? e.h : e.v) = k;
+    e.period_px = p.period_px;
+    e.relative_index = index;
+    place_partner(D, e, ex, img.cols, img.rows);
+    taken.push_back(index);
+    partial.push_back(e);
+  }
+  sort_by_index(partial);
+  return partial;
+}
+
+// The partial elements that keep an index no element holds (a predicted
+// one may have taken it since), numbered by the anchor. With the
+// arrangement recognised, each missing partner is placed on the side the
+// maker's style puts it (h_side: an element 1 or an odd group's element
+// has its H triplet right of the V on real charts), not the side of the
+// nearest complete element; and one that lies in the image is then a
+// prediction like a column's end, no longer a guess: it joins its found
+// pattern as an element and is measured there (dev_02's G7E1 H, too faint
+// beside its V triplet to binarise). A partner out of view stays partial.
+void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partial, int cols, int rows) {
+  std::erase_if(partial, [&](const ChartElement& p) {
+    return std::any_of(D.elements.begin(), D.elements.end(),
+                       [&](const ChartElement& e) { return e.relative_index == p.relative_index; });
+  });
+  const ChartDetection::Arrangement& A = D.arrangement;
+  std::vector<ChartElement> still_partial;
+  for (ChartElement& e : partial) {
+    const int n = D.largest_index + e.relative_index;
+    e.group = floor_div6(n);
+    e.element = n - 6 * e.group + 1;
+    if (!A.recognised) {
+      still_partial.push_back(e);
+      continue;
+    }
+    const Vec2 h_to_v = double(h_side(e.relative_index + A.phase, A.generated_style)) * chart_x_px(A);
+    place_partner(D, e, h_to_v, cols, rows);
+    if (e.partial != ChartElement::Partial::partner_not_found) {
+      still_partial.push_back(e);
+      continue;
+    }
+    D.patterns.push_back(predicted_partner(D, e, partner_center_px(D, e, h_to_v)));
+    (e.h >= 0 ? e.v : e.h) = static_cast<int>(D.patterns.size()) - 1;
+    e.partial = ChartElement::Partial::no;
+    e.partial_reason.clear();
+    D.elements.push_back(e);
+    ++D.partners_placed;
+  }
+  sort_by_index(D.elements);
+  D.partial = std::move(still_partial);
+}
+
+}  // namespace tactres::locate_detail
