@@ -17,6 +17,7 @@
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
 
+#include "fibre_bundle.h"
 #include "measure_chart_support.h"
 #include "tactres/measure/measurement_io.h"
 
@@ -156,28 +157,6 @@ TEST_CASE("chart: of an element with one pattern wiped off, that one gets fit_fa
   CHECK(discrete_limit_agrees(M.vertical, truth.vertical));
 }
 
-namespace {
-
-// A fibre bundle's transmission at image pixel (x, y): bright cores
-// (Gaussian, sigma 1 px) on a hexagonal lattice of 5 px over a dark net,
-// mean about 0.6.
-double honeycomb(int x, int y) {
-  const double period_px = 5, row_px = period_px * std::sqrt(3.0) / 2;
-  double t = 0.2;
-  const int r0 = static_cast<int>(std::floor(y / row_px));
-  for (int r = r0 - 1; r <= r0 + 2; ++r) {
-    const double cy = r * row_px, shift = (r % 2 != 0) ? 0.5 * period_px : 0;
-    const int c0 = static_cast<int>(std::floor((x - shift) / period_px));
-    for (int c = c0 - 1; c <= c0 + 2; ++c) {
-      const double cx = c * period_px + shift;
-      t += 1.4 * std::exp(-((x - cx) * (x - cx) + (y - cy) * (y - cy)) / 2.0);
-    }
-  }
-  return t;
-}
-
-}  // namespace
-
 TEST_CASE("chart: with the arrangement recognised, a pattern not found beside its partner is placed and measured there") {
   // G1E1's V triplet seen through a fibre bundle's honeycomb (bright
   // cores on a dark net, as on dev_02), which the binarisation breaks into
@@ -190,7 +169,7 @@ TEST_CASE("chart: with the arrangement recognised, a pattern not found beside it
         dir,
         [&](cv::Mat box, double paper) {
           if (wiped) box.setTo(paper);
-          else box.forEach<float>([](float& v, const int* yx) { v *= static_cast<float>(honeycomb(yx[1], yx[0])); });
+          else box.forEach<float>([](float& v, const int* yx) { v *= float(fibre_transmission(yx[1], yx[0], 5)); });
         },
         ChartMeasureOptions{});
     const TruthElement* tv = truth_for(run.truth, 1, 1, BarOrientation::vertical_bars);

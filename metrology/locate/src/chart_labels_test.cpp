@@ -8,8 +8,10 @@
 #include <opencv2/core.hpp>
 
 #include "chart_detect_internal.h"
+#include "fibre_bundle.h"
 
 using namespace tactres::locate_detail;
+using namespace tactres::testing;
 
 namespace {
 
@@ -18,23 +20,9 @@ namespace {
 // vertical stroke of stroke_px centred at x = 60.
 cv::Mat fibre_view(double period_px, double stroke_px, bool with_fibres) {
   cv::Mat img(120, 120, CV_32F);
-  const double row_px = period_px * std::sqrt(3.0) / 2;
   for (int y = 0; y < img.rows; ++y)
     for (int x = 0; x < img.cols; ++x) {
-      double fibres = 1;
-      if (with_fibres) {
-        // The nearest cores: lattice rows r, offset by half a period on odd rows.
-        fibres = 0.25;
-        const int r0 = static_cast<int>(std::floor(y / row_px));
-        for (int r = r0 - 1; r <= r0 + 2; ++r) {
-          const double cy = r * row_px, shift = (r % 2 != 0) ? 0.5 * period_px : 0;
-          const int c0 = static_cast<int>(std::floor((x - shift) / period_px));
-          for (int c = c0 - 1; c <= c0 + 2; ++c) {
-            const double cx = c * period_px + shift, d2 = (x - cx) * (x - cx) + (y - cy) * (y - cy);
-            fibres += 1.5 * std::exp(-d2 / 2.0);
-          }
-        }
-      }
+      const double fibres = with_fibres ? fibre_transmission(x, y, period_px) : 1.0;
       const bool ink = std::abs(x - 60) < 0.5 * stroke_px;
       img.at<float>(y, x) = static_cast<float>(fibres * (ink ? 0.3 : 1.0));
     }

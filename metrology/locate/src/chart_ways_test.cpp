@@ -1,0 +1,112 @@
+// detect_chart on a frame that shows too little of a real chart for the
+// arrangement alone (an even group's element 1 and its column, as on the
+// fibre-bundle frames dev_01 and dev_02): it fits as found and, mirrored,
+// as an even group's element 6 followed by the odd group's column. The
+// printed numbers, read as each way turns them, choose the way and fix the
+// group. The frame is drawn here from the real layout (real_chart_layout_test.h)
+// with sans-serif numbers, turned and mirrored.
+
+#include <cmath>
+#include <string>
+
+#include <doctest/doctest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "chart_detect_internal.h"
+#include "real_chart_layout_test.h"
+#include "tactres/locate/chart_detect.h"
+
+using namespace tactres;
+using namespace tactres::locate_detail;
+using namespace tactres::locate_test;
+
+namespace {
+
+constexpr double kW = 16;          // px per W (the even group's element 1's bar width)
+constexpr int kSuper = 4;          // drawn 4x larger, then area-averaged
+constexpr double kOriginX = 34, kOriginY = 10;  // chart (0, 0) in W from the canvas' corner
+
+cv::Point to_canvas(double x_w, double y_w) {
+  return {static_cast<int>(std::lround((x_w + kOriginX) * kW * kSuper)),
+          static_cast<int>(std::lround((y_w + kOriginY) * kW * kSuper))};
+}
+
+void bar(cv::Mat& ink, double x0_w, double y0_w, double x1_w, double y1_w) {
+  cv::rectangle(ink, to_canvas(x0_w, y0_w), to_canvas(x1_w, y1_w), cv::Scalar(255), cv::FILLED);
+}
+
+// `text` centred at (x, y) W, height_w W tall, strokes a sixth as wide.
+void number(cv::Mat& ink, const std::string& text, double x_w, double y_w, double height_w) {
+  const int height_px = static_cast<int>(height_w * kW * kSuper);
+  const int thickness = std::max(1, height_px / 6);
+  const double scale = cv::getFontScaleFromHeight(cv::FONT_HERSHEY_SIMPLEX, height_px, thickness);
+  int baseline = 0;
+  const cv::Size size = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, scale, thickness, &baseline);
+  const cv::Point c = to_canvas(x_w, y_w);
+  cv::putText(ink, text, {c.x - size.width / 2, c.y + size.height / 2}, cv::FONT_HERSHEY_SIMPLEX, scale,
+              cv::Scalar(255), thickness, cv::LINE_8);
+}
+
+// Group `group` (even): its element 1 and its column of elements 2-6 with
+// their numbers, the group number above the column and above element 1,
+// upright; dark ink on a light ground, slightly blurred.
+cv::Mat upright_frame(int group) {
+  cv::Mat ink = cv::Mat::zeros(static_cast<int>(44 * kW * kSuper), static_cast<int>(46 * kW * kSuper), CV_8U);
+  for (int n = 0; n < 6; ++n) {
+    const PairSlot& s = kRealPair[n];
+    const double w = std::exp2(-n / 6.0);
+    for (int b = -1; b <= 1; ++b) {
+      bar(ink, s.hx - 2.5 * w, s.hy + (2 * b - 0.5) * w, s.hx + 2.5 * w, s.hy + (2 * b + 0.5) * w);
+      const double vx = s.hx + s.v_dx;
+      bar(ink, vx + (2 * b - 0.5) * w, s.hy - 2.5 * w, vx + (2 * b + 0.5) * w, s.hy + 2.5 * w);
+    }
+    // Element numbers 2-6 left of the column's H triplets, a period tall.
+    if (n > 0) number(ink, std::to_string(n + 1), s.hx - 4.5 * w, s.hy, 2.2 * w);
+  }
+  const std::string g = std::to_string(group);
+  const PairSlot& head = kRealPair[1];
+  number(ink, g, head.hx + 0.5 * head.v_dx, head.hy - 5 * std::exp2(-1 / 6.0), 2.6);
+  const PairSlot& e1 = kRealPair[0];
+  number(ink, g, e1.hx + 3.5, e1.hy - 4.5, 2.8);
+  cv::Mat img;
+  ink.convertTo(img, CV_32F, -0.75 / 255, 0.85);
+  cv::resize(img, img, {}, 1.0 / kSuper, 1.0 / kSuper, cv::INTER_AREA);
+  return img;
+}
+
+// The frame turned by rotation_deg (counter-clockwise on screen) about its
+// centre, mirrored first if asked, blurred and with a little noise.
+cv::Mat seen(const cv::Mat& upright, double rotation_deg, bool mirrored) {
+  cv::Mat img = upright.clone();
+  if (mirrored) cv::flip(img, img, 1);
+  const cv::Mat R = cv::getRotationMatrix2D({0.5f * img.cols, 0.5f * img.rows}, rotation_deg, 1.0);
+  cv::warpAffine(img, img, R, img.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0.85));
+  cv::GaussianBlur(img, img, {0, 0}, 1.0);
+  cv::Mat noise(img.size(), CV_32F);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 0.01);
+  return img + noise;
+}
+
+}  // namespace
+
+TEST_CASE("chart detection: where the arrangement fits two ways, the printed numbers choose one and fix the group") {
+  for (const int group : {2, 6})
+    for (const double rotation_deg : {0.0, 20.0, 191.0})
+      for (const bool mirrored : {false, true}) {
+        CAPTURE(group);
+        CAPTURE(rotation_deg);
+        CAPTURE(mirrored);
+        const ChartDetection d = detect_chart(seen(upright_frame(group), rotation_deg, mirrored), {});
+        REQUIRE(d.found);
+        CAPTURE(d.anchor_description);
+        CHECK(d.elements.size() >= 5);
+        REQUIRE(d.anchor == ChartAnchor::printed_numbers);
+        CHECK(d.anchor_description.find("ways") != std::string::npos);
+        CHECK(d.arrangement.recognised);
+        CHECK(d.arrangement.mirrored == mirrored);
+        CHECK(d.elements.front().group == group);
+        CHECK(d.elements.front().element == 1);
+      }
+}
