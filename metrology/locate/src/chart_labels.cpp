@@ -350,13 +350,14 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   // arrangement turns them, and a group number must fit the group's
   // parity. Read in the eight axis turns instead, a cleaned 20-degree
   // tilted fibre frame gave three numbers that fit a group too many (the
-  // 16-bit copy of dev_02). And two readings must fit, not one: a cleaned
-  // digit is rounder, and one "6" of dev_02, cleaned a little more, read
-  // as a lone "8" that fit two groups too high.
+  // 16-bit copy of dev_02). And three readings must fit, not one: a
+  // cleaned digit is rounder, and a "6" reads as an "8" that fits the
+  // parity two groups too high (dev_02's, cleaned a little more, alone;
+  // one of 50 drawn honeycomb frames with one element number beside it).
   if (!anchored && phase) {
     std::string smooth_note;
     anchored = anchor_at_scale(S, kept_small, partial_small,
-                               without_fine_texture(small, bar_px * std::exp2(-levels)), phase, smooth_note, 2);
+                               without_fine_texture(small, bar_px * std::exp2(-levels)), phase, smooth_note, 3);
     if (anchored) note = "with texture finer than the strokes removed, " + smooth_note;
   }
   D.largest_index = S.largest_index;
