@@ -74,6 +74,20 @@ Built build(const std::vector<int>& ns, const View& v) {
   return b;
 }
 
+View turned(double rotation_deg, bool mirrored) {
+  View v;
+  v.rotation_deg = rotation_deg;
+  v.mirrored = mirrored;
+  return v;
+}
+
+// The chart's +y in the image when turned by rotation_deg (and mirrored
+// or not: a left-right mirror keeps it).
+Vec2 image_down(double rotation_deg) {
+  const double a = rotation_deg * M_PI / 180;
+  return {-std::sin(a), std::cos(a)};
+}
+
 std::vector<int> range(int a, int b) {
   std::vector<int> out;
   for (int n = a; n <= b; ++n) out.push_back(n);
@@ -87,10 +101,7 @@ TEST_CASE("arrangement: a real chart's phase and handedness under rotation and m
     for (bool mirrored : {false, true}) {
       CAPTURE(rot);
       CAPTURE(mirrored);
-      View v;
-      v.rotation_deg = rot;
-      v.mirrored = mirrored;
-      Built b = build(range(1, 16), v);  // the even group's E2 .. the inner pair's E5
+      Built b = build(range(1, 16), turned(rot, mirrored));  // the even group's E2 .. the inner pair's E5
       recognise_arrangement(b.D, b.field);
       const auto& A = b.D.arrangement;
       REQUIRE(A.recognised);
@@ -98,8 +109,7 @@ TEST_CASE("arrangement: a real chart's phase and handedness under rotation and m
       CHECK(A.mirrored == mirrored);
       CHECK_FALSE(A.generated_style);
       // The chart's +y in the image: the rotated (and mirrored) y axis.
-      const double a = rot * M_PI / 180;
-      CHECK(dot(A.down_px, Vec2{-std::sin(a), std::cos(a)}) > 0.99);
+      CHECK(dot(A.down_px, image_down(rot)) > 0.99);
     }
 }
 
@@ -147,10 +157,7 @@ TEST_CASE("arrangement: the ways it fits when the elements found fit it alike in
     for (bool mirrored : {false, true}) {
       CAPTURE(rot);
       CAPTURE(mirrored);
-      View v;
-      v.rotation_deg = rot;
-      v.mirrored = mirrored;
-      Built b = build(range(0, 5), v);
+      Built b = build(range(0, 5), turned(rot, mirrored));
       std::vector<ChartDetection::Arrangement> ways;
       recognise_arrangement(b.D, b.field, &ways);
       CHECK_FALSE(b.D.arrangement.recognised);
@@ -160,8 +167,7 @@ TEST_CASE("arrangement: the ways it fits when the elements found fit it alike in
         return w.phase == 0 && w.mirrored == mirrored;
       });
       REQUIRE(truth != ways.end());
-      const double a = rot * M_PI / 180;
-      CHECK(dot(truth->down_px, Vec2{-std::sin(a), std::cos(a)}) > 0.99);
+      CHECK(dot(truth->down_px, image_down(rot)) > 0.99);
       CHECK(truth->steps_matched == truth->steps_checked);
       for (const ChartDetection::Arrangement& w : ways) {
         CHECK(w.recognised);

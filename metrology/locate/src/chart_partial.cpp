@@ -18,19 +18,12 @@ namespace {
 
 // Where the missing pattern of partial element `e` stands:
 // D.separation_periods along `h_to_v` (the image direction from an H
-// triplet to its V partner) from the found one.
-Vec2 partner_center_px(const ChartDetection& D, const ChartElement& e, Vec2 h_to_v) {
+// triplet to its V partner) from the found one; returned. Whether it would
+// lie in the image (with its strip's margin) sets e.partial and its reason.
+Vec2 place_partner(const ChartDetection& D, ChartElement& e, Vec2 h_to_v, int cols, int rows) {
   const bool is_h = e.h >= 0;
   const BarPattern& p = D.patterns[is_h ? e.h : e.v];
-  return p.center_px + ((is_h ? 1.0 : -1.0) * D.separation_periods * p.period_px) * h_to_v;
-}
-
-// Whether the missing pattern of partial element `e` would lie in the
-// image (with its strip's margin). Sets e.partial and its reason.
-void place_partner(const ChartDetection& D, ChartElement& e, Vec2 h_to_v, int cols, int rows) {
-  const bool is_h = e.h >= 0;
-  const BarPattern& p = D.patterns[is_h ? e.h : e.v];
-  const Vec2 partner = partner_center_px(D, e, h_to_v);
+  const Vec2 partner = p.center_px + ((is_h ? 1.0 : -1.0) * D.separation_periods * p.period_px) * h_to_v;
   const double r = 2.0 * p.period_px;
   const bool outside = partner.x - r < 0 || partner.y - r < 0 || partner.x + r > cols - 1 || partner.y + r > rows - 1;
   e.partial = outside ? ChartElement::Partial::partner_out_of_view : ChartElement::Partial::partner_not_found;
@@ -38,6 +31,7 @@ void place_partner(const ChartDetection& D, ChartElement& e, Vec2 h_to_v, int co
                                  is_h ? "vertical-bar" : "horizontal-bar",
                                  outside ? "lies outside the image (the element is partly out of view)"
                                          : "is in the image but was not found there");
+  return partner;
 }
 
 // The found pattern of partial element `e` turned a quarter about itself
@@ -121,12 +115,12 @@ void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partia
       continue;
     }
     const Vec2 h_to_v = double(h_side(e.relative_index + A.phase, A.generated_style)) * chart_x_px(A);
-    place_partner(D, e, h_to_v, cols, rows);
+    const Vec2 partner_px = place_partner(D, e, h_to_v, cols, rows);
     if (e.partial != ChartElement::Partial::partner_not_found) {
       still_partial.push_back(e);
       continue;
     }
-    D.patterns.push_back(predicted_partner(D, e, partner_center_px(D, e, h_to_v)));
+    D.patterns.push_back(predicted_partner(D, e, partner_px));
     (e.h >= 0 ? e.v : e.h) = static_cast<int>(D.patterns.size()) - 1;
     e.partial = ChartElement::Partial::no;
     e.partial_reason.clear();

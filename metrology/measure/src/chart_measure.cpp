@@ -374,11 +374,7 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   // (ChartDetection::partners_placed) is lone like a partial one: no
   // partner found confirms its index, so neither pattern joins the scale
   // field, the level step or the tracking anchors.
-  for (const ChartElement& e : D.elements) {
-    const bool half_placed =
-        e.h >= 0 && e.v >= 0 && D.patterns[e.h].predicted != D.patterns[e.v].predicted;
-    add_refs(e, half_placed);
-  }
+  for (const ChartElement& e : D.elements) add_refs(e, partner_placed(D, e));
   for (const ChartElement& e : D.partial) add_refs(e, true);
   chart::PlacementStore store(lum, D, image.saturation_level);
   ShiftLog shifts;

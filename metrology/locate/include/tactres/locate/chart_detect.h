@@ -161,6 +161,12 @@ struct ChartDetection {
   } arrangement;
 };
 
+// Whether one of element e's patterns was found and the other placed
+// beside it (ChartDetection::partners_placed).
+inline bool partner_placed(const ChartDetection& D, const ChartElement& e) {
+  return e.h >= 0 && e.v >= 0 && D.patterns[e.h].predicted != D.patterns[e.v].predicted;
+}
+
 ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& options);
 
 }  // namespace tactres
