@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <map>
 
+#include <glog/logging.h>
 #include <opencv2/core.hpp>
 
 #include "benchmark_timing.h"
@@ -52,6 +53,8 @@ std::filesystem::path generated_chart_png(const std::filesystem::path& dir) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  FLAGS_minloglevel = 3;  // Ceres' covariance warnings: tactres grades those fits itself
+  google::InitGoogleLogging(argv[0]);
   const int reps = argc > 1 ? std::max(3, std::atoi(argv[1])) : 7;
   cv::setNumThreads(1);
   TempDir dir("chart-bench");

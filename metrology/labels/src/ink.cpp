@@ -127,4 +127,31 @@ std::vector<bool> bar_blobs(const std::vector<Blob>& blobs) {
   return bar;
 }
 
+// See ink.h. An erosion costs its width per pixel: with windows of
+// hundreds of pixels it was three quarters of finding the label boxes of
+// dev_02's 1.3 Mpx frame (four bands at 30-55 ms each).
+cv::Mat local_darkest(const cv::Mat& g, int window) {
+  cv::Mat out;
+  const int tile = window / 16;
+  if (tile < 2) {
+    cv::erode(g, out, cv::getStructuringElement(cv::MORPH_RECT, {window, window}), cv::Point(-1, -1), 1,
+              cv::BORDER_REPLICATE);
+    return out;
+  }
+  // Each tile's sample holds the minimum within a tile of it, so that
+  // every pixel lies within some sample's reach (the image's last column
+  // too), and the samples' reach together spans the window.
+  cv::Mat tile_min, coarse;
+  cv::erode(g, tile_min, cv::getStructuringElement(cv::MORPH_RECT, {2 * tile + 1, 2 * tile + 1}), cv::Point(-1, -1),
+            1, cv::BORDER_REPLICATE);
+  // Sampled at the tiles' centres (INTER_NEAREST would take their corners).
+  cv::resize(tile_min, coarse, {(g.cols + tile - 1) / tile, (g.rows + tile - 1) / tile}, 0, 0,
+             cv::INTER_NEAREST_EXACT);
+  const int half = std::max(0, ((window - 1) / 2 - tile) / tile);  // in tiles
+  cv::erode(coarse, coarse, cv::getStructuringElement(cv::MORPH_RECT, {2 * half + 1, 2 * half + 1}),
+            cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  cv::resize(coarse, out, g.size(), 0, 0, cv::INTER_LINEAR);
+  return out;
+}
+
 }  // namespace tactres::labels_detail

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "ink.h"
 #include "orientation.h"
 #include "tactres/labels/label_boxes.h"
 #include "tactres/labels/label_reader.h"
@@ -129,4 +130,41 @@ TEST_CASE("label boxes stay inside the search rectangle and the character height
   search.ink = Ink::dark;
   search.min_char_height_px = 70;  // above the maximum
   CHECK_THROWS_AS(find_label_boxes(image, search), std::invalid_argument);
+}
+
+// The local darkest value behind the ink threshold: beyond 32 px it is
+// taken on tiles, and must stay within the erosions by the window +- 4
+// tiles (ink.h), yet follow the true one closely.
+TEST_CASE("the tiled local darkest value lies within the erosions it stands for") {
+  cv::Mat g(700, 900, CV_32F);
+  cv::RNG rng(11);
+  rng.fill(g, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::GaussianBlur(g, g, {0, 0}, 6);
+  for (int k = 0; k < 40; ++k)  // dark specks, the extremes an erosion carries
+    cv::circle(g, {rng.uniform(0, g.cols), rng.uniform(0, g.rows)}, 2, cv::Scalar(rng.uniform(-1.0, 0.2)), -1);
+  auto eroded = [&](int window) {
+    cv::Mat out;
+    cv::erode(g, out, cv::getStructuringElement(cv::MORPH_RECT, {window, window}), cv::Point(-1, -1), 1,
+              cv::BORDER_REPLICATE);
+    return out;
+  };
+  for (const int window : {21, 65, 161, 401}) {
+    CAPTURE(window);
+    const cv::Mat d = labels_detail::local_darkest(g, window);
+    REQUIRE(d.size() == g.size());
+    const int tile = window / 16;
+    if (tile < 2) {
+      CHECK(cv::norm(d, eroded(window), cv::NORM_INF) == 0);
+      continue;
+    }
+    const cv::Mat outer = eroded(window + 4 * tile), inner = eroded(window - 4 * tile);
+    CHECK(cv::countNonZero(d < outer - 1e-6f) == 0);
+    CHECK(cv::countNonZero(d > inner + 1e-6f) == 0);
+    // Close to the exact erosion on average: a tenth of the image's range.
+    cv::Mat diff;
+    cv::absdiff(d, eroded(window), diff);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(g, &lo, &hi);
+    CHECK(cv::mean(diff)[0] < 0.1 * (hi - lo));
+  }
 }

@@ -229,7 +229,7 @@ std::optional<Choice> choose_with_phase(const std::vector<std::pair<Choice, std:
 // At least min_readings of them must fit the anchor chosen.
 bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
                      const std::vector<ChartElement>& partial, const cv::Mat& img, std::optional<int> phase,
-                     std::string& note, int min_readings = 1) {
+                     std::string& note, std::optional<std::vector<cv::Rect>>& boxes_found, int min_readings = 1) {
   std::string error;
   LabelReader* reader = thread_reader(error);
   if (!reader) {
@@ -249,7 +249,8 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
   }
   std::vector<ChartElement> beside = kept;
   beside.insert(beside.end(), partial.begin(), partial.end());
-  const std::vector<cv::Rect> boxes = label_boxes(img, D, beside);
+  if (!boxes_found) boxes_found = label_boxes(img, D, beside);
+  const std::vector<cv::Rect>& boxes = *boxes_found;
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
   const auto read = phase ? read_boxes_upright(*reader, img, boxes, ink, D.arrangement) : read_boxes(*reader, img, boxes, ink);
   // The orientation and k together: in the wrong orientation the numbers
@@ -336,16 +337,19 @@ cv::Mat without_fine_texture(const cv::Mat& img, double bar_px) {
 // 36 px character anyway.
 bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept,
                                const std::vector<ChartElement>& partial, const cv::Mat& img,
-                               std::optional<int> phase, std::string& note) {
-  double bar_px = 1e300;
-  for (const ChartElement& e : kept) bar_px = std::min(bar_px, 0.5 * e.period_px);
-  int levels = 0;
-  while (bar_px * std::exp2(-(levels + 1)) >= 12 && std::min(img.cols, img.rows) >> (levels + 1) >= 64) ++levels;
-  cv::Mat small = img;
-  for (int l = 0; l < levels; ++l) cv::pyrDown(small, small);
+                               std::optional<int> phase, std::string& note, NumberImages& found) {
+  if (!found.made) {
+    found.bar_px = 1e300;
+    for (const ChartElement& e : kept) found.bar_px = std::min(found.bar_px, 0.5 * e.period_px);
+    while (found.bar_px * 0.5 >= 12 && std::min(img.cols, img.rows) >> (found.levels + 1) >= 64)
+      ++found.levels, found.bar_px *= 0.5;
+    found.small = img;
+    for (int l = 0; l < found.levels; ++l) cv::pyrDown(found.small, found.small);
+    found.made = true;
+  }
   std::vector<ChartElement> kept_small = kept, partial_small = partial;
-  ChartDetection S = levels == 0 ? D : halved(D, kept_small, partial_small, levels);
-  bool anchored = anchor_at_scale(S, kept_small, partial_small, small, phase, note);
+  ChartDetection S = found.levels == 0 ? D : halved(D, kept_small, partial_small, found.levels);
+  bool anchored = anchor_at_scale(S, kept_small, partial_small, found.small, phase, note, found.small_boxes);
   // Only with the phase known: the numbers are then read upright as the
   // arrangement turns them, and a group number must fit the group's
   // parity. Read in the eight axis turns instead, a cleaned 20-degree
@@ -355,9 +359,9 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   // parity two groups too high (dev_02's, cleaned a little more, alone;
   // one of 50 drawn honeycomb frames with one element number beside it).
   if (!anchored && phase) {
+    if (found.cleaned.empty()) found.cleaned = without_fine_texture(found.small, found.bar_px);
     std::string smooth_note;
-    anchored = anchor_at_scale(S, kept_small, partial_small,
-                               without_fine_texture(small, bar_px * std::exp2(-levels)), phase, smooth_note, 3);
+    anchored = anchor_at_scale(S, kept_small, partial_small, found.cleaned, phase, smooth_note, found.cleaned_boxes, 3);
     if (anchored) note = "with texture finer than the strokes removed, " + smooth_note;
   }
   D.largest_index = S.largest_index;
