@@ -22,13 +22,16 @@ std::vector<float> finite_values(const cv::Mat& grey) {
   return v;
 }
 
-// The equal-moment rectangle of one blob (see Blob).
-void fill_shape(Blob& b, const cv::Mat& labels) {
-  const cv::Mat mask = labels(b.box) == b.label;
-  const cv::Moments m = cv::moments(mask, true);
-  b.centroid = {b.box.x + m.m10 / m.m00, b.box.y + m.m01 / m.m00};
-  const double cxx = m.mu20 / m.m00 + 1.0 / 12, cyy = m.mu02 / m.m00 + 1.0 / 12, cxy = m.mu11 / m.m00;
+// The equal-moment rectangle of one blob (see Blob) from its pixel count
+// and the sums of x, y, x^2, xy, y^2 over its pixels (relative to its box's
+// corner, so that the sums stay small).
+void fill_shape(Blob& b, const cv::Vec<double, 5>& sums) {
+  const double n = b.area;
+  const double mx = sums[0] / n, my = sums[1] / n;
+  b.centroid = {b.box.x + mx, b.box.y + my};
   // The 1/12 is a pixel's own variance, so a 1-px-wide stroke is 1 px wide.
+  const double cxx = sums[2] / n - mx * mx + 1.0 / 12, cyy = sums[4] / n - my * my + 1.0 / 12;
+  const double cxy = sums[3] / n - mx * my;
   const double mean = 0.5 * (cxx + cyy), d = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
   b.length_px = std::sqrt(12 * (mean + d));
   b.width_px = std::sqrt(12 * std::max(mean - d, 1e-9));
@@ -87,6 +90,19 @@ bool stretch_contrast(cv::Mat& grey, double lo_quantile, double hi_quantile) {
 std::vector<Blob> find_blobs(const cv::Mat& mask, cv::Mat* labels_out) {
   cv::Mat labels, stats, centroids;
   const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  // The moments of every blob in one pass over the labels: a pass over each
+  // blob's box cost the sum of the boxes' areas, many times the image's on
+  // a textured frame (a fibre bundle's honeycomb: hundreds of blobs).
+  std::vector<cv::Vec<double, 5>> sums(static_cast<size_t>(std::max(n, 1)), cv::Vec<double, 5>::all(0));
+  for (int y = 0; y < labels.rows; ++y) {
+    const int* row = labels.ptr<int>(y);
+    for (int x = 0; x < labels.cols; ++x) {
+      const int i = row[x];
+      if (i == 0) continue;
+      const double dx = x - stats.at<int>(i, cv::CC_STAT_LEFT), dy = y - stats.at<int>(i, cv::CC_STAT_TOP);
+      sums[static_cast<size_t>(i)] += cv::Vec<double, 5>(dx, dy, dx * dx, dx * dy, dy * dy);
+    }
+  }
   std::vector<Blob> blobs;
   blobs.reserve(static_cast<size_t>(std::max(n - 1, 0)));
   for (int i = 1; i < n; ++i) {
@@ -96,7 +112,7 @@ std::vector<Blob> find_blobs(const cv::Mat& mask, cv::Mat* labels_out) {
              stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT)};
     b.area = stats.at<int>(i, cv::CC_STAT_AREA);
     b.touches_border = b.box.x == 0 || b.box.y == 0 || b.box.br().x == mask.cols || b.box.br().y == mask.rows;
-    fill_shape(b, labels);
+    fill_shape(b, sums[static_cast<size_t>(i)]);
     blobs.push_back(b);
   }
   if (labels_out) *labels_out = labels;

@@ -62,19 +62,32 @@ double noise_sigma(const cv::Mat& g) {
   return std::max(1.4826 * v[v.size() / 2] / std::sqrt(2.0), 1e-3 * (hi - lo));
 }
 
+// The search region as every band of character heights thresholds it:
+// ink dark (light ink negated), lightly smoothed for the local darkest
+// value, and its noise.
+struct InkSource {
+  cv::Mat g, smooth;
+  double noise = 0;
+};
+
+InkSource ink_source(const cv::Mat& grey_region, Ink ink) {
+  InkSource s;
+  s.g = ink == Ink::light ? cv::Mat(-grey_region) : grey_region;
+  cv::GaussianBlur(s.g, s.smooth, cv::Size(), 0.7);
+  s.noise = noise_sigma(s.g);
+  return s;
+}
+
 // The ink of the search region (CV_8U mask): pixels darker than halfway
 // from the local mean to the local darkest (over ~3 character heights, so
 // uneven light does not matter), where that span is well above the noise
-// (plain ground has no ink, however noisy; `noise`: noise_sigma(grey),
-// the same for every band).
-cv::Mat ink_mask(const cv::Mat& grey, const LabelBoxSearch& search, double noise) {
-  const cv::Mat g = search.ink == Ink::light ? cv::Mat(-grey) : grey;
-  const int window = 2 * static_cast<int>(std::lround(1.5 * search.max_char_height_px)) + 1;
-  cv::Mat mean, smooth;
-  cv::blur(g, mean, cv::Size(window, window), cv::Point(-1, -1), cv::BORDER_REPLICATE);
-  cv::GaussianBlur(g, smooth, cv::Size(), 0.7);
-  const cv::Mat darkest = labels_detail::local_darkest(smooth, window);
-  return (g < 0.5 * (mean + darkest)) & (mean - darkest > 6 * noise);
+// (plain ground has no ink, however noisy).
+cv::Mat ink_mask(const InkSource& s, double max_char_height_px) {
+  const int window = 2 * static_cast<int>(std::lround(1.5 * max_char_height_px)) + 1;
+  cv::Mat mean;
+  cv::blur(s.g, mean, cv::Size(window, window), cv::Point(-1, -1), cv::BORDER_REPLICATE);
+  const cv::Mat darkest = labels_detail::local_darkest(s.smooth, window);
+  return (s.g < 0.5 * (mean + darkest)) & (mean - darkest > 6 * s.noise);
 }
 
 // The index of the candidate nearest to `g` among those that `fits`, or -1.
@@ -102,10 +115,10 @@ namespace {
 
 // The boxes of one band of character heights (search's min..max), found
 // with an ink threshold whose window suits that band.
-std::vector<cv::Rect> boxes_in_band(const cv::Mat& grey, const cv::Rect& region, const LabelBoxSearch& search,
-                                    double noise) {
-  const cv::Rect image(0, 0, grey.cols, grey.rows);
-  const cv::Mat ink = ink_mask(grey(region), search, noise);
+std::vector<cv::Rect> boxes_in_band(const InkSource& source, const cv::Rect& region, const cv::Size& image_size,
+                                    const LabelBoxSearch& search) {
+  const cv::Rect image({0, 0}, image_size);
+  const cv::Mat ink = ink_mask(source, search.max_char_height_px);
   const std::vector<Blob> blobs = labels_detail::find_blobs(ink);
   const std::vector<bool> bars = labels_detail::bar_blobs(blobs);
 
@@ -181,13 +194,13 @@ std::vector<cv::Rect> find_label_boxes(const cv::Mat& luminance, const LabelBoxS
   const cv::Rect image(0, 0, grey.cols, grey.rows);
   const cv::Rect region = search.search_px.empty() ? image : search.search_px & image;
   if (region.width < 3 || region.height < 3) return {};
-  const double noise = noise_sigma(grey(region));  // a polarity's sign leaves it as it is
+  const InkSource source = ink_source(grey(region), search.ink);
   std::vector<cv::Rect> boxes;
   for (double lo = search.min_char_height_px; lo <= search.max_char_height_px; lo *= 2) {
     LabelBoxSearch band = search;
     band.min_char_height_px = lo;
     band.max_char_height_px = std::min(search.max_char_height_px, 2.5 * lo);
-    for (const cv::Rect& b : boxes_in_band(grey, region, band, noise)) {
+    for (const cv::Rect& b : boxes_in_band(source, region, grey.size(), band)) {
       // The same number found in two bands: keep the first.
       const bool seen = std::any_of(boxes.begin(), boxes.end(), [&](const cv::Rect& k) {
         return (k & b).area() > 0.5 * std::min(k.area(), b.area());
