@@ -178,20 +178,31 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
                                const std::vector<ChartElement>& partial, const cv::Mat& img,
                                std::optional<int> phase, std::string& note, NumberImages& found);
 
-// What reading the printed numbers finds alike under every way of the
-// arrangement, made once per detection (each way reads the same label
-// boxes, upright as it turns them): the image the numbers are read in (a
-// pyramid level down where they are large), its copy without fine texture,
-// and the label boxes found in each. Searching for label boxes cost 170 ms
-// a time on dev_02's 1.3 Mpx frame, and its three ways searched both
-// images each (1.0 s of its 1.5 s detection).
+// One image the printed numbers are read in, with what reading it finds
+// alike under every way of the arrangement: its label boxes, and the boxes
+// read upright as a way turns them (ways that differ only in the phase
+// turn them alike).
+struct NumberSite {
+  cv::Mat img;
+  std::optional<std::vector<cv::Rect>> boxes;
+  struct Upright {
+    Vec2 down_px;
+    bool mirrored = false;
+    std::vector<std::vector<NumberReading>> read;  // per box
+  };
+  std::vector<Upright> upright;
+};
+
+// The images the printed numbers are read in, made once per detection and
+// shared by every way of the arrangement: the image a pyramid level down
+// where the numbers are large, and its copy without fine texture. Searching
+// for label boxes cost 170 ms a time on dev_02's 1.3 Mpx frame, and its
+// three ways searched both images each (1.0 s of its 1.5 s detection).
 struct NumberImages {
   bool made = false;
   int levels = 0;     // octaves down the pyramid
   double bar_px = 0;  // the finest element's bar width there
-  cv::Mat small;      // the image there
-  cv::Mat cleaned;    // without_fine_texture(small), once needed
-  std::optional<std::vector<cv::Rect>> small_boxes, cleaned_boxes;
+  NumberSite small, cleaned;  // cleaned.img: without_fine_texture(small.img), once needed
 };
 
 // Partial elements (ChartElement::partial; chart_partial.cpp): each lone

@@ -102,17 +102,20 @@ std::vector<std::vector<NumberReading>> read_boxes(LabelReader& reader, const cv
 // Every box read upright only, turned (and un-mirrored) by the chart's
 // orientation as the arrangement found it: one OCR pass a box, and no
 // digit can be taken for another one turned (a 6 for a 9, a 2 for a 5).
-std::vector<std::vector<NumberReading>> read_boxes_upright(LabelReader& reader, const cv::Mat& img,
-                                                           const std::vector<cv::Rect>& boxes, Ink ink,
-                                                           const ChartDetection::Arrangement& A) {
-  std::vector<std::vector<NumberReading>> out;
-  for (const cv::Rect& b : boxes) {
+// Read once per turn of the site's image.
+const std::vector<std::vector<NumberReading>>& read_boxes_upright(LabelReader& reader, NumberSite& site, Ink ink,
+                                                                  const ChartDetection::Arrangement& A) {
+  for (const NumberSite::Upright& u : site.upright)
+    if (u.mirrored == A.mirrored && norm(u.down_px - A.down_px) < 1e-9) return u.read;
+  NumberSite::Upright u{A.down_px, A.mirrored, {}};
+  for (const cv::Rect& b : *site.boxes) {
     const int side = std::max(b.width, b.height);
     std::vector<NumberReading> r;
-    if (auto n = reader.read_number(upright_patch(img, A, box_center(b), side, side), ink)) r.push_back(*n);
-    out.push_back(std::move(r));
+    if (auto n = reader.read_number(upright_patch(site.img, A, box_center(b), side, side), ink)) r.push_back(*n);
+    u.read.push_back(std::move(r));
   }
-  return out;
+  site.upright.push_back(std::move(u));
+  return site.upright.back().read;
 }
 
 // The numbers as they read in orientation `o`.
@@ -228,8 +231,9 @@ std::optional<Choice> choose_with_phase(const std::vector<std::pair<Choice, std:
 // the numbers beside the elements are read beside the partial ones too.
 // At least min_readings of them must fit the anchor chosen.
 bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
-                     const std::vector<ChartElement>& partial, const cv::Mat& img, std::optional<int> phase,
-                     std::string& note, std::optional<std::vector<cv::Rect>>& boxes_found, int min_readings = 1) {
+                     const std::vector<ChartElement>& partial, NumberSite& site, std::optional<int> phase,
+                     std::string& note, int min_readings = 1) {
+  const cv::Mat& img = site.img;
   std::string error;
   LabelReader* reader = thread_reader(error);
   if (!reader) {
@@ -249,10 +253,12 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
   }
   std::vector<ChartElement> beside = kept;
   beside.insert(beside.end(), partial.begin(), partial.end());
-  if (!boxes_found) boxes_found = label_boxes(img, D, beside);
-  const std::vector<cv::Rect>& boxes = *boxes_found;
+  if (!site.boxes) site.boxes = label_boxes(img, D, beside);
+  const std::vector<cv::Rect>& boxes = *site.boxes;
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
-  const auto read = phase ? read_boxes_upright(*reader, img, boxes, ink, D.arrangement) : read_boxes(*reader, img, boxes, ink);
+  std::vector<std::vector<NumberReading>> any_turn;
+  if (!phase) any_turn = read_boxes(*reader, img, boxes, ink);
+  const auto& read = phase ? read_boxes_upright(*reader, site, ink, D.arrangement) : any_turn;
   // The orientation and k together: in the wrong orientation the numbers
   // (a 6 read as 9, a 2 as 5) do not fit the elements' order.
   std::vector<std::pair<Choice, std::map<int, Support>>> by_o;
@@ -343,13 +349,13 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
     for (const ChartElement& e : kept) found.bar_px = std::min(found.bar_px, 0.5 * e.period_px);
     while (found.bar_px * 0.5 >= 12 && std::min(img.cols, img.rows) >> (found.levels + 1) >= 64)
       ++found.levels, found.bar_px *= 0.5;
-    found.small = img;
-    for (int l = 0; l < found.levels; ++l) cv::pyrDown(found.small, found.small);
+    found.small.img = img;
+    for (int l = 0; l < found.levels; ++l) cv::pyrDown(found.small.img, found.small.img);
     found.made = true;
   }
   std::vector<ChartElement> kept_small = kept, partial_small = partial;
   ChartDetection S = found.levels == 0 ? D : halved(D, kept_small, partial_small, found.levels);
-  bool anchored = anchor_at_scale(S, kept_small, partial_small, found.small, phase, note, found.small_boxes);
+  bool anchored = anchor_at_scale(S, kept_small, partial_small, found.small, phase, note);
   // Only with the phase known: the numbers are then read upright as the
   // arrangement turns them, and a group number must fit the group's
   // parity. Read in the eight axis turns instead, a cleaned 20-degree
@@ -359,9 +365,9 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   // parity two groups too high (dev_02's, cleaned a little more, alone;
   // one of 50 drawn honeycomb frames with one element number beside it).
   if (!anchored && phase) {
-    if (found.cleaned.empty()) found.cleaned = without_fine_texture(found.small, found.bar_px);
+    if (found.cleaned.img.empty()) found.cleaned.img = without_fine_texture(found.small.img, found.bar_px);
     std::string smooth_note;
-    anchored = anchor_at_scale(S, kept_small, partial_small, found.cleaned, phase, smooth_note, found.cleaned_boxes, 3);
+    anchored = anchor_at_scale(S, kept_small, partial_small, found.cleaned, phase, smooth_note, 3);
     if (anchored) note = "with texture finer than the strokes removed, " + smooth_note;
   }
   D.largest_index = S.largest_index;
