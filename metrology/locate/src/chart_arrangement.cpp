@@ -345,7 +345,7 @@ void predict_nested_pairs(ChartDetection& D, Vec2 centre_px, int cols, int rows)
   std::set<int> pairs_found;
   for (size_t i = 0; i < all.size(); ++i) {
     held[all[i].relative_index] = i;
-    if (!D.patterns[all[i].h].predicted) pairs_found.insert(pair_of(all[i].relative_index));
+    if (found_in_image(D, all[i])) pairs_found.insert(pair_of(all[i].relative_index));
   }
   int added = 0;
   for (size_t i = 0; i < all.size(); ++i) {

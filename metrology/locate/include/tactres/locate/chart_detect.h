@@ -167,6 +167,12 @@ inline bool partner_placed(const ChartDetection& D, const ChartElement& e) {
   return e.h >= 0 && e.v >= 0 && D.patterns[e.h].predicted != D.patterns[e.v].predicted;
 }
 
+// Whether at least one of element e's patterns was found in the image (not
+// both predicted: ChartDetection::predicted_elements).
+inline bool found_in_image(const ChartDetection& D, const ChartElement& e) {
+  return (e.h >= 0 && !D.patterns[e.h].predicted) || (e.v >= 0 && !D.patterns[e.v].predicted);
+}
+
 ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& options);
 
 }  // namespace tactres
