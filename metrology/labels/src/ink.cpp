@@ -154,17 +154,24 @@ cv::Mat local_darkest(const cv::Mat& g, int window) {
               cv::BORDER_REPLICATE);
     return out;
   }
-  // Each tile's sample holds the minimum within a tile of it, so that
+  // Each tile's sample holds the minimum within half a tile of it, so that
   // every pixel lies within some sample's reach (the image's last column
   // too), and the samples' reach together spans the window.
+  const int tile_reach = (tile + 1) / 2;
   cv::Mat tile_min, coarse;
-  cv::erode(g, tile_min, cv::getStructuringElement(cv::MORPH_RECT, {2 * tile + 1, 2 * tile + 1}), cv::Point(-1, -1),
-            1, cv::BORDER_REPLICATE);
+  cv::erode(g, tile_min, cv::getStructuringElement(cv::MORPH_RECT, {2 * tile_reach + 1, 2 * tile_reach + 1}),
+            cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
   // Sampled at the tiles' centres (INTER_NEAREST would take their corners).
-  cv::resize(tile_min, coarse, {(g.cols + tile - 1) / tile, (g.rows + tile - 1) / tile}, 0, 0,
-             cv::INTER_NEAREST_EXACT);
-  const int half = std::max(0, ((window - 1) / 2 - tile) / tile);  // in tiles
-  cv::erode(coarse, coarse, cv::getStructuringElement(cv::MORPH_RECT, {2 * half + 1, 2 * half + 1}),
+  const cv::Size tiles((g.cols + tile - 1) / tile, (g.rows + tile - 1) / tile);
+  cv::resize(tile_min, coarse, tiles, 0, 0, cv::INTER_NEAREST_EXACT);
+  // The samples stand a little closer than a tile where the image is not a
+  // whole number of tiles: the window's half in samples, per axis, from
+  // their true spacing.
+  const auto half = [&](int px, int n) {
+    return std::max(0, static_cast<int>(((window - 1) / 2 - tile_reach) / (static_cast<double>(px) / n)));
+  };
+  const int half_x = half(g.cols, tiles.width), half_y = half(g.rows, tiles.height);
+  cv::erode(coarse, coarse, cv::getStructuringElement(cv::MORPH_RECT, {2 * half_x + 1, 2 * half_y + 1}),
             cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
   cv::resize(coarse, out, g.size(), 0, 0, cv::INTER_LINEAR);
   return out;

@@ -59,9 +59,9 @@ std::vector<bool> bar_blobs(const std::vector<Blob>& blobs);
 // The darkest value of CV_32F `g` within a window x window square about
 // each pixel (window odd, borders replicated). Up to 32 px this is the
 // erosion itself; beyond, the minimum over the minima of tiles a 16th of the
-// window wide, interpolated between the tiles' centres: within the erosions
-// by the window +- 4 tiles everywhere, and smooth, as the local mean it is
-// compared with.
+// window wide, interpolated between the tiles' centres: between the
+// erosions by the window + 2 tiles and the window - 4 tiles everywhere, and
+// smooth, as the local mean it is compared with.
 cv::Mat local_darkest(const cv::Mat& g, int window);
 
 }  // namespace tactres::labels_detail

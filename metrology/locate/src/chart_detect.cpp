@@ -300,7 +300,7 @@ enum class WaysAnswer { chosen, none, contradictory };
 WaysAnswer anchor_among_ways(ChartDetection& D, const std::vector<ChartElement>& kept,
                              const std::vector<ChartElement>& partial, const cv::Mat& img,
                              const std::vector<ChartDetection::Arrangement>& ways, std::string& note,
-                             NumberImages& found) {
+                             NumberImages& number_images) {
   std::optional<int> index;
   const ChartDetection::Arrangement* chosen = nullptr;
   std::string chosen_note;
@@ -308,7 +308,7 @@ WaysAnswer anchor_among_ways(ChartDetection& D, const std::vector<ChartElement>&
     ChartDetection W = D;
     W.arrangement = way;
     std::string way_note;
-    if (!anchor_by_printed_numbers(W, kept, partial, img, way.phase, way_note, found)) continue;
+    if (!anchor_by_printed_numbers(W, kept, partial, img, way.phase, way_note, number_images)) continue;
     if (index && *index != W.largest_index) {
       note = fmt::format("the arrangement fits the elements found in {} ways, and the printed numbers fix the group "
                          "under more than one of them, differently",
@@ -351,9 +351,9 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const std:
     // Another typeface than the generator's: read the numbers by OCR.
     std::string note;
     std::string ways_note;
-    NumberImages found;
+    NumberImages number_images;  // shared by every reading below
     if (!ways.empty()) {
-      const WaysAnswer answer = anchor_among_ways(D, kept, partial, img, ways, ways_note, found);
+      const WaysAnswer answer = anchor_among_ways(D, kept, partial, img, ways, ways_note, number_images);
       if (answer == WaysAnswer::chosen) return;
       // Numbers that fix the group differently under two ways contradict
       // each other; read without a phase they would not be more right.
@@ -365,7 +365,7 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const std:
     }
     const std::optional<int> phase =
         D.arrangement.recognised ? std::optional<int>(D.arrangement.phase) : std::nullopt;
-    if (anchor_by_printed_numbers(D, kept, partial, img, phase, note, found)) {
+    if (anchor_by_printed_numbers(D, kept, partial, img, phase, note, number_images)) {
       D.anchor = ChartAnchor::printed_numbers;
       D.anchor_description = "printed numbers: " + note;
     } else {

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <optional>
 #include <vector>
 
@@ -166,22 +167,10 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
 void predict_column_ends(ChartDetection& D);
 void predict_nested_pairs(ChartDetection& D, Vec2 centre_px, int cols, int rows);
 
-// The anchor from the printed group and element numbers, read by OCR
-// (chart_labels.cpp): sets D.largest_index and returns true when the
-// numbers read fix it; `note` says what was read, or why not. `phase`:
-// D.largest_index modulo 12 when the arrangement fixed it. Numbers are
-// also read beside the `partial` elements (ChartElement::partial).
-// `found`: what the reading finds alike each time within one detection
-// (NumberImages), kept there across calls.
-struct NumberImages;
-bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept,
-                               const std::vector<ChartElement>& partial, const cv::Mat& img,
-                               std::optional<int> phase, std::string& note, NumberImages& found);
-
 // One image the printed numbers are read in, with what reading it finds
 // alike under every way of the arrangement: its label boxes, and the boxes
 // read upright as a way turns them (ways that differ only in the phase
-// turn them alike).
+// turn them alike; a deque, so that a turn read stays where it is).
 struct NumberSite {
   cv::Mat img;
   std::optional<std::vector<cv::Rect>> boxes;
@@ -190,20 +179,35 @@ struct NumberSite {
     bool mirrored = false;
     std::vector<std::vector<NumberReading>> read;  // per box
   };
-  std::vector<Upright> upright;
+  std::deque<Upright> upright;
 };
 
 // The images the printed numbers are read in, made once per detection and
 // shared by every way of the arrangement: the image a pyramid level down
-// where the numbers are large, and its copy without fine texture. Searching
-// for label boxes cost 170 ms a time on dev_02's 1.3 Mpx frame, and its
-// three ways searched both images each (1.0 s of its 1.5 s detection).
+// where the numbers are large, and its copy without fine texture. Before,
+// each way searched both images for label boxes again: 170 ms a search on
+// dev_02's 1.3 Mpx frame (before labels_detail::local_darkest), 1.0 s of
+// its 1.5 s detection over its three ways.
 struct NumberImages {
   bool made = false;
+  const uchar* source_data = nullptr;  // the image they were made from (the precondition's check)
   int levels = 0;     // octaves down the pyramid
   double bar_px = 0;  // the finest element's bar width there
   NumberSite small, cleaned;  // cleaned.img: without_fine_texture(small.img), once needed
 };
+
+// The anchor from the printed group and element numbers, read by OCR
+// (chart_labels.cpp): sets D.largest_index and returns true when the
+// numbers read fix it; `note` says what was read, or why not. `phase`:
+// D.largest_index modulo 12 when the arrangement fixed it. Numbers are
+// also read beside the `partial` elements (ChartElement::partial).
+// `images` keeps what the reading finds alike from call to call
+// within one detection: every call with it must pass the same `img`,
+// `kept` and `partial` (and D's patterns and polarity), only D's
+// arrangement and `phase` may differ.
+bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept,
+                               const std::vector<ChartElement>& partial, const cv::Mat& img,
+                               std::optional<int> phase, std::string& note, NumberImages& images);
 
 // Partial elements (ChartElement::partial; chart_partial.cpp): each lone
 // pattern (indices into D.patterns) with >= 4 px per period whose period

@@ -343,19 +343,21 @@ cv::Mat without_fine_texture(const cv::Mat& img, double bar_px) {
 // 36 px character anyway.
 bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept,
                                const std::vector<ChartElement>& partial, const cv::Mat& img,
-                               std::optional<int> phase, std::string& note, NumberImages& found) {
-  if (!found.made) {
-    found.bar_px = 1e300;
-    for (const ChartElement& e : kept) found.bar_px = std::min(found.bar_px, 0.5 * e.period_px);
-    while (found.bar_px * 0.5 >= 12 && std::min(img.cols, img.rows) >> (found.levels + 1) >= 64)
-      ++found.levels, found.bar_px *= 0.5;
-    found.small.img = img;
-    for (int l = 0; l < found.levels; ++l) cv::pyrDown(found.small.img, found.small.img);
-    found.made = true;
+                               std::optional<int> phase, std::string& note, NumberImages& images) {
+  CV_Assert(!images.made || img.data == images.source_data);
+  if (!images.made) {
+    images.bar_px = 1e300;
+    for (const ChartElement& e : kept) images.bar_px = std::min(images.bar_px, 0.5 * e.period_px);
+    while (images.bar_px * 0.5 >= 12 && std::min(img.cols, img.rows) >> (images.levels + 1) >= 64)
+      ++images.levels, images.bar_px *= 0.5;
+    images.small.img = img;
+    for (int l = 0; l < images.levels; ++l) cv::pyrDown(images.small.img, images.small.img);
+    images.source_data = img.data;
+    images.made = true;
   }
   std::vector<ChartElement> kept_small = kept, partial_small = partial;
-  ChartDetection S = found.levels == 0 ? D : halved(D, kept_small, partial_small, found.levels);
-  bool anchored = anchor_at_scale(S, kept_small, partial_small, found.small, phase, note);
+  ChartDetection S = images.levels == 0 ? D : halved(D, kept_small, partial_small, images.levels);
+  bool anchored = anchor_at_scale(S, kept_small, partial_small, images.small, phase, note);
   // Only with the phase known: the numbers are then read upright as the
   // arrangement turns them, and a group number must fit the group's
   // parity. Read in the eight axis turns instead, a cleaned 20-degree
@@ -365,9 +367,9 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   // parity two groups too high (dev_02's, cleaned a little more, alone;
   // one of 50 drawn honeycomb frames with one element number beside it).
   if (!anchored && phase) {
-    if (found.cleaned.img.empty()) found.cleaned.img = without_fine_texture(found.small.img, found.bar_px);
+    if (images.cleaned.img.empty()) images.cleaned.img = without_fine_texture(images.small.img, images.bar_px);
     std::string smooth_note;
-    anchored = anchor_at_scale(S, kept_small, partial_small, found.cleaned, phase, smooth_note, 3);
+    anchored = anchor_at_scale(S, kept_small, partial_small, images.cleaned, phase, smooth_note, 3);
     if (anchored) note = "with texture finer than the strokes removed, " + smooth_note;
   }
   D.largest_index = S.largest_index;
