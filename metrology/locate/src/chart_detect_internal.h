@@ -189,8 +189,7 @@ struct NumberSite {
 // dev_02's 1.3 Mpx frame (before labels_detail::local_darkest), 1.0 s of
 // its 1.5 s detection over its three ways.
 struct NumberImages {
-  bool made = false;
-  const uchar* source_data = nullptr;  // the image they were made from (the precondition's check)
+  const uchar* source_data = nullptr;  // the image they were made from; null until made
   int levels = 0;     // octaves down the pyramid
   double bar_px = 0;  // the finest element's bar width there
   NumberSite small, cleaned;  // cleaned.img: without_fine_texture(small.img), once needed

@@ -344,8 +344,8 @@ cv::Mat without_fine_texture(const cv::Mat& img, double bar_px) {
 bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement>& kept,
                                const std::vector<ChartElement>& partial, const cv::Mat& img,
                                std::optional<int> phase, std::string& note, NumberImages& images) {
-  CV_Assert(!images.made || img.data == images.source_data);
-  if (!images.made) {
+  CV_Assert(!images.source_data || img.data == images.source_data);
+  if (!images.source_data) {
     images.bar_px = 1e300;
     for (const ChartElement& e : kept) images.bar_px = std::min(images.bar_px, 0.5 * e.period_px);
     while (images.bar_px * 0.5 >= 12 && std::min(img.cols, img.rows) >> (images.levels + 1) >= 64)
@@ -353,7 +353,6 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
     images.small.img = img;
     for (int l = 0; l < images.levels; ++l) cv::pyrDown(images.small.img, images.small.img);
     images.source_data = img.data;
-    images.made = true;
   }
   std::vector<ChartElement> kept_small = kept, partial_small = partial;
   ChartDetection S = images.levels == 0 ? D : halved(D, kept_small, partial_small, images.levels);

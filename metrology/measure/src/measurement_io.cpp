@@ -208,11 +208,10 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
   // it counts as found; the placed pattern is listed apart.
   nlohmann::json placed = nlohmann::json::array(), partners = nlohmann::json::array();
   for (const ChartElement& e : d.elements) {
-    const bool h_placed = e.h >= 0 && d.patterns[e.h].predicted;
     if (partner_placed(d, e))
       partners.push_back({{"group", e.group}, {"element", e.element},
-                          {"placed", h_placed ? "horizontal_bars" : "vertical_bars"}});
-    else if (h_placed)
+                          {"placed", d.patterns[e.h].predicted ? "horizontal_bars" : "vertical_bars"}});
+    else if (!found_in_image(d, e))
       placed.push_back({{"group", e.group}, {"element", e.element}});
   }
   j["elements_found"] = d.elements.size() - placed.size();
