@@ -145,8 +145,9 @@ std::optional<NumberReading> LabelReader::recognise(const cv::Mat& upright8) {
   return r;
 }
 
-std::optional<NumberReading> LabelReader::read_number(const cv::Mat& patch, Ink ink) {
-  const std::optional<OcrPatch> ocr = labels_detail::prepare_ocr_patch(patch, ink, options_.ocr_char_height_px);
+std::optional<NumberReading> LabelReader::read_number(const cv::Mat& patch, Ink ink, Counters counters) {
+  const std::optional<OcrPatch> ocr =
+      labels_detail::prepare_ocr_patch(patch, ink, options_.ocr_char_height_px, counters);
   if (!ocr) return std::nullopt;
   std::optional<NumberReading> r = recognise(ocr->image);
   if (r) r->box_px = ocr->text_px;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -93,9 +94,45 @@ double stroke_width_px(const cv::Mat& binary8) {
   return 4 * cv::mean(distance, ink)[0];
 }
 
+// Text (ink 0) binarised at Otsu's threshold, or nullopt when its strokes
+// are thicker than max_stroke_px (a blob, not a numeral). With
+// Counters::reopen, a numeral whose counters filled in gets a second
+// threshold: under heavy blur (a fibre bundle's frames, dev_01) the holes
+// of a "6" stand half-way between ink and ground, Otsu's threshold puts
+// them in the ink, and the "6" becomes a blob. Otsu's threshold within the
+// ink class splits the dark strokes from the half-tone counters. It is
+// taken only where it keeps the glyph whole: as many pieces as before,
+// and at least 3/4 of its height (a blob of texture falls apart into
+// fragments, which read as anything).
+std::optional<cv::Mat> binarise(const cv::Mat& grey8, Counters counters, double max_stroke_px) {
+  cv::Mat binary;
+  const double otsu = cv::threshold(grey8, binary, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+  if (stroke_width_px(binary) <= max_stroke_px) return binary;
+  if (counters == Counters::keep) return std::nullopt;
+  const cv::Mat ink = binary == 0;
+  std::vector<uchar> ink_values;
+  ink_values.reserve(static_cast<size_t>(cv::countNonZero(ink)));
+  for (int y = 0; y < grey8.rows; ++y)
+    for (int x = 0; x < grey8.cols; ++x)
+      if (ink.at<uchar>(y, x)) ink_values.push_back(grey8.at<uchar>(y, x));
+  if (ink_values.size() < 2) return std::nullopt;
+  cv::Mat unused, reopened;
+  const double within_ink = cv::threshold(cv::Mat(1, static_cast<int>(ink_values.size()), CV_8U, ink_values.data()),
+                                          unused, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+  if (!(within_ink < otsu)) return std::nullopt;
+  cv::threshold(grey8, reopened, within_ink, 255, cv::THRESH_BINARY);
+  const cv::Mat core = reopened == 0;
+  cv::Mat component_labels;
+  const bool whole = cv::connectedComponents(core, component_labels) == cv::connectedComponents(ink, component_labels) &&
+                     cv::boundingRect(core).height >= 0.75 * cv::boundingRect(ink).height;
+  if (!whole || stroke_width_px(reopened) > max_stroke_px) return std::nullopt;
+  return reopened;
+}
+
 }  // namespace
 
-std::optional<OcrPatch> prepare_ocr_patch(const cv::Mat& patch, Ink ink, double ocr_char_height_px) {
+std::optional<OcrPatch> prepare_ocr_patch(const cv::Mat& patch, Ink ink, double ocr_char_height_px,
+                                         Counters counters) {
   cv::Mat grey = to_float_grey(patch);
   if (grey.rows < 5 || grey.cols < 5 || !stretch_contrast(grey)) return std::nullopt;
   cv::Mat grey8, dark_mask;
@@ -127,9 +164,9 @@ std::optional<OcrPatch> prepare_ocr_patch(const cv::Mat& patch, Ink ink, double 
   cv::Mat big, big8;
   cv::resize(grey(crop), big, scaled, 0, 0, s > 1 ? cv::INTER_CUBIC : cv::INTER_AREA);
   big.convertTo(big8, CV_8U, 255);
-  cv::threshold(big8, big8, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
-
-  if (stroke_width_px(big8) > kMaxStrokeShare * ocr_char_height_px) return std::nullopt;
+  const std::optional<cv::Mat> binary = binarise(big8, counters, kMaxStrokeShare * ocr_char_height_px);
+  if (!binary) return std::nullopt;
+  big8 = *binary;
 
   OcrPatch out;
   const int border = static_cast<int>(std::lround(0.5 * ocr_char_height_px));

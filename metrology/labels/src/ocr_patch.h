@@ -21,6 +21,8 @@ struct OcrPatch {
 // 5 px; only bars; more than six separate blobs; or strokes too thick for
 // numerals (blobs). Throws std::invalid_argument for an empty or multi-channel
 // patch.
-std::optional<OcrPatch> prepare_ocr_patch(const cv::Mat& patch, Ink ink, double ocr_char_height_px);
+// `counters`: see Counters (label_reader.h).
+std::optional<OcrPatch> prepare_ocr_patch(const cv::Mat& patch, Ink ink, double ocr_char_height_px,
+                                          Counters counters = Counters::keep);
 
 }  // namespace tactres::labels_detail

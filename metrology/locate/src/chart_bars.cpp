@@ -205,10 +205,26 @@ cv::Mat stabilised(const cv::Mat& linear) {
   return out;
 }
 
+// The robust spread (1.4826 x the median absolute value, on every third
+// pixel of every third row) of a local-contrast image.
+double local_contrast_sigma(const cv::Mat& diff) {
+  std::vector<float> v;
+  v.reserve(static_cast<size_t>(diff.rows / 3 + 1) * (diff.cols / 3 + 1));
+  for (int y = 0; y < diff.rows; y += 3) {
+    const float* row = diff.ptr<float>(y);
+    for (int x = 0; x < diff.cols; x += 3) v.push_back(std::abs(row[x]));
+  }
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return 1.4826 * v[v.size() / 2];
+}
+
 // Bar candidates in `img` at windows 7 and 15 px: dark ones into `dark`,
 // light ones into `light` (a null pointer: that polarity is not searched).
+// With `contrast_sigmas` > 0 the margin is at least that many robust
+// sigmas of each window's local contrast (a smoothed texture's mottle).
 void collect_bars_at(const cv::Mat& img, double margin, double min_width_px, std::vector<Bar>* dark,
-                     std::vector<Bar>* light) {
+                     std::vector<Bar>* light, double contrast_sigmas) {
   // One buffer for both windows' local mean and difference, one for the
   // mask: a fresh image-sized buffer each time costs its page faults.
   cv::Mat diff, mask;
@@ -216,12 +232,13 @@ void collect_bars_at(const cv::Mat& img, double margin, double min_width_px, std
     if (k > 7 && k > std::min(img.cols, img.rows) / 2) break;
     cv::blur(img, diff, {k, k}, {-1, -1}, cv::BORDER_REFLECT);
     cv::subtract(img, diff, diff);
+    const double m = contrast_sigmas > 0 ? std::max(margin, contrast_sigmas * local_contrast_sigma(diff)) : margin;
     if (dark) {
-      cv::compare(diff, -margin, mask, cv::CMP_LT);
+      cv::compare(diff, -m, mask, cv::CMP_LT);
       collect_bars(mask, min_width_px, *dark);
     }
     if (light) {
-      cv::compare(diff, margin, mask, cv::CMP_GT);
+      cv::compare(diff, m, mask, cv::CMP_GT);
       collect_bars(mask, min_width_px, *light);
     }
   }
@@ -253,7 +270,8 @@ size_t element_count(const std::vector<Bar>& bars, bool light) {
 // fibre bundle's honeycomb, 4.75-6.4 px on dev_01/02; laser speckle), which
 // cuts bars into fragments at full resolution: two octaves down a 5 px
 // period keeps 2 % of its amplitude while bars 6 px wide stay bars.
-void collect_all_bars(const cv::Mat& img, double min_bar_px, std::vector<Bar>& dark, std::vector<Bar>& light) {
+void collect_all_bars(const cv::Mat& img, double min_bar_px, double contrast_sigmas, std::vector<Bar>& dark,
+                      std::vector<Bar>& light) {
   const double mean_level = cv::mean(img)[0];
   // Margin: noise must not make bars, nor the faint texture of a clean
   // print. Each octave has its own noise (the pyramid smooths it). 2 sigma:
@@ -273,7 +291,8 @@ void collect_all_bars(const cv::Mat& img, double min_bar_px, std::vector<Bar>& d
     cv::pyrDown(level_img, level_img);
     if (std::min(level_img.cols, level_img.rows) < 32) break;
     std::vector<Bar> d, li;
-    collect_bars_at(level_img, margin(level_img), std::max(1.5, 0.8 * min_bar_px * std::exp2(-level)), &d, &li);
+    collect_bars_at(level_img, margin(level_img), std::max(1.5, 0.8 * min_bar_px * std::exp2(-level)), &d, &li,
+                    contrast_sigmas);
     to_full_resolution(d, level);
     to_full_resolution(li, level);
     coarse_dark.insert(coarse_dark.end(), d.begin(), d.end());
@@ -287,21 +306,18 @@ void collect_all_bars(const cv::Mat& img, double min_bar_px, std::vector<Bar>& d
   // the wrong polarity must not hide a chart too fine for the octaves.
   const size_t n_dark = element_count(coarse_dark, false), n_light = element_count(coarse_light, true);
   const bool dark_only = n_dark >= 2 && n_light == 0, light_only = n_light >= 2 && n_dark == 0;
-  collect_bars_at(img, margin(img), min_bar_px * 0.8, light_only ? nullptr : &dark, dark_only ? nullptr : &light);
+  collect_bars_at(img, margin(img), min_bar_px * 0.8, light_only ? nullptr : &dark, dark_only ? nullptr : &light,
+                  contrast_sigmas);
   dark.insert(dark.end(), coarse_dark.begin(), coarse_dark.end());
   light.insert(light.end(), coarse_light.begin(), coarse_light.end());
 }
 
 }  // namespace
 
-PatternsFound find_patterns(const cv::Mat& linear, double min_bar_px, ImageScale scale) {
+PatternsFound find_patterns(const cv::Mat& linear, double min_bar_px, ImageScale scale, double contrast_sigmas) {
   std::vector<Bar> dark, light;
-  if (scale == ImageScale::linear) {
-    collect_all_bars(linear, min_bar_px, dark, light);
-  } else {
-    const cv::Mat root = stabilised(linear);
-    collect_all_bars(root, min_bar_px, dark, light);
-  }
+  const cv::Mat img = scale == ImageScale::stabilised ? stabilised(linear) : linear;
+  collect_all_bars(img, min_bar_px, contrast_sigmas, dark, light);
   dark = deduplicate(std::move(dark));
   light = deduplicate(std::move(light));
   return {find_triplets(dark, false), find_triplets(light, true)};

@@ -64,7 +64,11 @@ struct PatternsFound {
 // Only where the bars are is decided here; they are measured in linear
 // light.
 enum class ImageScale { linear, stabilised };
-PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, ImageScale scale);
+// `contrast_sigmas` > 0: a bar's margin is also at least that many robust
+// sigmas of the local contrast (the mottle a smoothed texture leaves).
+PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, ImageScale scale, double contrast_sigmas = 0);
+
+std::optional<double> fibre_lattice_pitch_px(const cv::Mat& img);
 
 // One horizontal run of marked pixels of a mask: x0..x1 inclusive, row y.
 struct MaskRun {

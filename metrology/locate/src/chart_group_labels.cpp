@@ -127,6 +127,38 @@ std::optional<Site> element_one_site(const ChartDetection& D, const ChartElement
   return std::nullopt;
 }
 
+// How far the band must move along each of its axes (px; 0: not) to
+// centre ink that one of its edges cuts: ink touching both edges of an
+// axis fills the band that way, and moving would not help.
+Vec2 shift_to_uncut(const cv::Rect& box, int width, int height) {
+  const auto along = [](int lo, int extent, int size) {
+    const bool at_lo = lo <= 0, at_hi = lo + extent >= size;
+    return at_lo != at_hi ? lo + 0.5 * extent - 0.5 * size : 0.0;
+  };
+  return {along(box.x, box.width, width), along(box.y, box.height, height)};
+}
+
+// The number at `site`. A digit cut by one edge of the band is no evidence
+// (a "7" cut at its foot reads as a confident 2 or 3: dev_01, whose group
+// numbers stand nearer their columns than on the charts the band was
+// measured on): the band is moved once to centre the ink and read again,
+// and a digit still cut is not read.
+std::optional<NumberReading> read_site(LabelReader& reader, const cv::Mat& img, const ChartDetection::Arrangement& A,
+                                       const Site& site, Ink ink) {
+  std::optional<NumberReading> r =
+      reader.read_number(upright_patch(img, A, site.center_px, site.width, site.height), ink, Counters::reopen);
+  if (!r) return r;
+  const Vec2 shift = shift_to_uncut(r->box_px, site.width, site.height);
+  if (shift.x == 0 && shift.y == 0) return r;
+  const Vec2 moved = site.center_px + shift.x * chart_x_px(A) + shift.y * A.down_px;
+  if (!inside(img, moved, site.width, site.height, A.down_px)) return std::nullopt;
+  r = reader.read_number(upright_patch(img, A, moved, site.width, site.height), ink, Counters::reopen);
+  if (!r) return r;
+  const Vec2 still = shift_to_uncut(r->box_px, site.width, site.height);
+  if (still.x != 0 || still.y != 0) return std::nullopt;
+  return r;
+}
+
 }  // namespace
 
 std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const ChartDetection& D,
@@ -147,8 +179,7 @@ std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const Ch
   std::map<int, int> votes;  // j -> readings that fit k = phase + 12 j
   int read = 0, unfit = 0;
   for (const Site& site : sites) {
-    const std::optional<NumberReading> r =
-        reader.read_number(upright_patch(img, D.arrangement, site.center_px, site.width, site.height), ink);
+    const std::optional<NumberReading> r = read_site(reader, img, D.arrangement, site, ink);
     if (!r || r->box_px.height < kMinLabelCharPx) continue;
     ++read;
     bool fits = false;

@@ -351,6 +351,16 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
     while (images.bar_px * 0.5 >= 12 && std::min(img.cols, img.rows) >> (images.levels + 1) >= 64)
       ++images.levels, images.bar_px *= 0.5;
     images.small.img = img;
+    if (D.fibre_lattice_pitch_px > 0) {
+      // `img` is smoothed at 0.38 lattice pitch already (detect_chart);
+      // once more makes 0.54, where the honeycomb keeps 0.3 % of its
+      // amplitude and no longer closes a 6's counter (at 0.43 in all the
+      // 16-bit copy of dev_01 reads its 6 as an 8; at 0.63 that of dev_02
+      // reads no number).
+      cv::Mat smoothed;
+      cv::GaussianBlur(img, smoothed, {0, 0}, 0.38 * D.fibre_lattice_pitch_px);
+      images.small.img = smoothed;
+    }
     for (int l = 0; l < images.levels; ++l) cv::pyrDown(images.small.img, images.small.img);
     images.source_data = img.data;
   }

@@ -5,6 +5,8 @@
 #include <optional>
 #include <tuple>
 
+#include <fmt/format.h>
+
 #include "chart_frames.h"
 #include "chart_jobs.h"
 #include "chart_level_step.h"
@@ -59,6 +61,27 @@ void start_measurement(const LoadedImage& image, Measurement& M) {
   M.transfer = image.transfer;
 }
 
+// A coherent fibre bundle (ChartDetection::fibre_lattice_pitch_px) samples
+// the chart at its cores: bars narrower than the cores' row pitch are
+// beyond its Nyquist limit, whatever the camera behind it resolves, and
+// any modulation they show is the lattice's beat, not bars (dev_01: G7E4
+// at 4.5 px per bar under rows 4.65 px apart fits m = 0.32 +- 0.15, where
+// the eye sees only the honeycomb). Such elements are `aliased`, and
+// Nyquist is the bundle's.
+void grade_beyond_fibre_sampling(const ChartDetection& D, Measurement& M) {
+  const double pitch_px = D.fibre_lattice_pitch_px;
+  if (pitch_px <= 0) return;
+  M.nyquist_h_lp_per_mm /= pitch_px;
+  M.nyquist_v_lp_per_mm /= pitch_px;
+  for (ElementResult& e : M.elements)
+    if (e.status == ElementStatus::ok && e.px_per_bar < pitch_px) {
+      e.status = ElementStatus::aliased;
+      e.note = fmt::format("{:.2f} px per bar is finer than the fibre bundle's rows of cores ({:.2f} px apart), "
+                           "which sample the chart: beyond the bundle's Nyquist limit",
+                           e.px_per_bar, pitch_px);
+    }
+}
+
 // The missing patterns of the partial elements, then the limits from all
 // elements in series order, and whether anything is resolved at all.
 void decide_chart(const ChartDetection& D, const MeasureOptions& mo, Measurement& M) {
@@ -68,6 +91,7 @@ void decide_chart(const ChartDetection& D, const MeasureOptions& mo, Measurement
   // about the finer ones (layout mode, which frames the whole target,
   // counts it as unresolved instead).
   add_missing_patterns(D, M);
+  grade_beyond_fibre_sampling(D, M);
   grade_damaged(M, mo.criterion);
   decide_limits(M, mo.criterion, mo.detectability, true);
   M.stage_seconds.push_back({"decide", t.seconds()});

@@ -313,11 +313,16 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
       // sigma above this one and at m >= 0.3: past a defocus disc's first
       // zero the bars come back contrast-reversed, but at m of 0.13-0.22
       // at most, which a pattern locked half a period off could read.
+      // Each one or two steps of the series past the one before: an element
+      // between them may be missing (dev_01's 16-bit copy: G5E6, cut away
+      // by the fibre bundle's edge, lies between G5E5 and G6E1).
       bool finer_show_bars = true;
       for (size_t k = i + 1; k <= i + 2; ++k) {
         const ElementResult& f = *row[k];
-        const bool next_in_series = std::abs(f.lp_per_mm / e.lp_per_mm / std::pow(step, double(k - i)) - 1) < 0.03;
-        finer_show_bars = finer_show_bars && next_in_series && ok_and_resolved(f, criterion) && f.m >= 0.3 &&
+        const double steps = std::log(f.lp_per_mm / row[k - 1]->lp_per_mm) / std::log(step);
+        const bool near_in_series = std::abs(steps - std::round(steps)) < 0.15 && std::round(steps) >= 1 &&
+                                    std::round(steps) <= 2;
+        finer_show_bars = finer_show_bars && near_in_series && ok_and_resolved(f, criterion) && f.m >= 0.3 &&
                           f.m - m > 3 * std::hypot(f.m_sigma, sigma);
       }
       if (!finer_show_bars) continue;

@@ -100,6 +100,15 @@ struct LabelReaderOptions {
   double ocr_char_height_px = 36;
 };
 
+// Whether a blurred numeral whose counters (the holes of a 0, 4, 6, 8, 9)
+// filled in at the usual threshold is binarised a second time, at a
+// threshold within the ink, to open them (`reopen`), or refused as a blob
+// (`keep`). Reopening reads numerals under heavy blur (a fibre bundle's
+// frames), but also makes digits of some texture blobs: ask for it only
+// where a number is expected and its reading is checked further (a group
+// number where the chart's arrangement puts one).
+enum class Counters { keep, reopen };
+
 class LabelReader;
 
 // What LabelReader::create() gives: a reader, or why there is none.
@@ -120,7 +129,8 @@ class LabelReader {
   // The number in `patch` as it stands (no turning or mirroring), or
   // nullopt when nothing credible is read. Throws std::invalid_argument
   // for an empty or multi-channel patch.
-  std::optional<NumberReading> read_number(const cv::Mat& patch, Ink ink = Ink::automatic);
+  std::optional<NumberReading> read_number(const cv::Mat& patch, Ink ink = Ink::automatic,
+                                           Counters counters = Counters::keep);
 
   // Every credible reading over the eight orientations, highest confidence
   // first (empty when none is credible). Each carries the orientation in

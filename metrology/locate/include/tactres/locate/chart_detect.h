@@ -113,6 +113,11 @@ struct ChartDetection {
   int largest_index = 0;            // absolute series index 6 g + e - 1 of relative index 0
   int unpaired_patterns = 0;        // patterns found without a partner (measured only in `partial`)
   double separation_periods = 3.5;  // an element's H-to-V centre distance in its periods (the chart's median)
+  // The row pitch of a coherent fibre bundle's honeycomb over the image,
+  // px (0: none). The chart is then found, and its numbers read, on a copy
+  // smoothed at the lattice's scale; it is measured on the image itself,
+  // where bars narrower than the pitch are beyond the bundle's sampling.
+  double fibre_lattice_pitch_px = 0;
   // Elements placed, not found (their patterns are `predicted`):
   // - the element after the finest one found in a column, where three found
   //   elements in a row fix the column's geometric progression (each element
