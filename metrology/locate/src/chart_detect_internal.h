@@ -68,6 +68,12 @@ enum class ImageScale { linear, stabilised };
 // sigmas of the local contrast (the mottle a smoothed texture leaves).
 PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, ImageScale scale, double contrast_sigmas = 0);
 
+// The row pitch (px) of a coherent fibre bundle's hexagonal core lattice
+// over the image (dev_01: 4.65, dev_02: 6.92), from the power spectrum of
+// the image's centred 256 px square: a ring of power well above the radii
+// beside it, with three peaks 60 degrees apart on it (fibre_lattice.cpp);
+// nullopt when there is none with a pitch of 3-10 px, or the image is
+// smaller than the square (every real capture not taken through a bundle).
 std::optional<double> fibre_lattice_pitch_px(const cv::Mat& img);
 
 // One horizontal run of marked pixels of a mask: x0..x1 inclusive, row y.

@@ -64,6 +64,22 @@ TEST_CASE("damaged: not when a finer neighbour is unresolved or within the error
   CHECK(d.elements[1].status == ElementStatus::damaged);
 }
 
+TEST_CASE("damaged: across one missing element of the series, not across two") {
+  Criterion c;
+  // E2 shows no bars; E3 was never found (cut away by the field's edge):
+  // E4 and E5, one and two steps past the gap, show the bars.
+  Measurement one_gap = row_of({0.8, 0.02, 0.7, 0.6, 0.4, 0.05});
+  one_gap.elements.erase(one_gap.elements.begin() + 2);
+  grade_damaged(one_gap, c);
+  CHECK(one_gap.elements[1].status == ElementStatus::damaged);
+  CHECK(one_gap.elements[1].note.find("G2E4 and G2E5") != std::string::npos);
+  // E3 and E4 both missing: E5 is three steps on, too far to speak for E2.
+  Measurement two_gap = row_of({0.8, 0.02, 0.7, 0.6, 0.5, 0.4});
+  two_gap.elements.erase(two_gap.elements.begin() + 2, two_gap.elements.begin() + 4);
+  grade_damaged(two_gap, c);
+  CHECK(two_gap.elements[1].status == ElementStatus::ok);
+}
+
 namespace {
 
 // A vertical-bar triplet (bar width 0.1 mm, at 40 px/mm 4 px per bar)

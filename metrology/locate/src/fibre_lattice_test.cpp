@@ -1,0 +1,100 @@
+// fibre_lattice_pitch_px (fibre_lattice.cpp): a coherent fibre bundle's
+// honeycomb is found over a chart at any turn, with its rows' pitch; bars,
+// a grating of one direction, noise and small images give none.
+
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include <doctest/doctest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "chart_detect_internal.h"
+#include "fibre_bundle.h"
+
+using namespace tactres::locate_detail;
+using namespace tactres::testing;
+
+namespace {
+
+// Three-bar patterns of bar widths 3-12 px in both orientations, dark
+// (0.2) on a ground of 0.9, over a 400 px square.
+bool on_bar(int x, int y) {
+  const int widths[] = {3, 4, 5, 6, 8, 10, 12};
+  for (int i = 0; i < 7; ++i) {
+    const int w = widths[i], x0 = 20 + 52 * i, y0 = 40;
+    for (int b = 0; b < 3; ++b) {
+      const bool vertical = x >= x0 + 2 * b * w && x < x0 + 2 * b * w + w && y >= y0 && y < y0 + 5 * w;
+      const bool horizontal = x >= x0 && x < x0 + 5 * w && y >= 220 + 2 * b * w && y < 220 + 2 * b * w + w;
+      if (vertical || horizontal) return true;
+    }
+  }
+  return false;
+}
+
+// The bars seen through a bundle of cores `spacing_px` apart (no bundle:
+// spacing 0), with noise of sigma 0.02. A real bundle is fused from
+// multi-fibres whose lattices are turned a little against each other, and
+// its spectrum shows a ring with six peaks (dev_01, dev_02): here 12
+// domains (the cells nearest to random points), each lattice turned by
+// turn_deg +- 8 degrees and shifted.
+cv::Mat chart_view(double spacing_px, double turn_deg) {
+  cv::RNG rng(static_cast<uint64_t>(100 * spacing_px + turn_deg) + 1);
+  struct Domain {
+    double x, y, c, s, dx, dy;
+  };
+  std::vector<Domain> domains;
+  for (int k = 0; k < 12; ++k) {
+    const double a = (turn_deg + rng.uniform(-8.0, 8.0)) * std::numbers::pi / 180;
+    domains.push_back({rng.uniform(0.0, 400.0), rng.uniform(0.0, 400.0), std::cos(a), std::sin(a),
+                       rng.uniform(0.0, spacing_px), rng.uniform(0.0, spacing_px)});
+  }
+  cv::Mat img(400, 400, CV_32F);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      double fibres = 1.0;
+      if (spacing_px > 0) {
+        const Domain* d = &domains.front();
+        for (const Domain& e : domains)
+          if (std::hypot(x - e.x, y - e.y) < std::hypot(x - d->x, y - d->y)) d = &e;
+        fibres = fibre_transmission(d->c * x - d->s * y + d->dx, d->s * x + d->c * y + d->dy, spacing_px);
+      }
+      img.at<float>(y, x) = static_cast<float>(fibres * (on_bar(x, y) ? 0.2 : 0.9));
+    }
+  cv::Mat noise(img.size(), CV_32F);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, 0.02);
+  return img + noise;
+}
+
+}  // namespace
+
+TEST_CASE("a fibre bundle's honeycomb is found over a chart, with its rows' pitch") {
+  for (const double spacing_px : {4.0, 4.5, 5.4, 8.0, 11.0})
+    for (const double turn_deg : {0.0, 17.0, 45.0}) {
+      CAPTURE(spacing_px);
+      CAPTURE(turn_deg);
+      const std::optional<double> pitch = fibre_lattice_pitch_px(chart_view(spacing_px, turn_deg));
+      REQUIRE(pitch);
+      // Rows of cores stand spacing x sqrt(3)/2 apart.
+      CHECK(*pitch == doctest::Approx(spacing_px * std::sqrt(3.0) / 2).epsilon(0.04));
+    }
+}
+
+TEST_CASE("bars, a grating of one direction, noise and small images show no fibre bundle") {
+  CHECK_FALSE(fibre_lattice_pitch_px(chart_view(0, 0)));
+  // A fine grating (bars 2.5 px wide) fills the centre: one pair of peaks,
+  // not three.
+  cv::Mat grating(400, 400, CV_32F);
+  for (int y = 0; y < grating.rows; ++y)
+    for (int x = 0; x < grating.cols; ++x)
+      grating.at<float>(y, x) = static_cast<float>(0.5 + 0.4 * std::cos(2 * std::numbers::pi * (x + 0.3 * y) / 5.0));
+  CHECK_FALSE(fibre_lattice_pitch_px(grating));
+  cv::Mat noise(400, 400, CV_32F);
+  cv::randn(noise, 0.5, 0.1);
+  CHECK_FALSE(fibre_lattice_pitch_px(noise));
+  cv::GaussianBlur(noise, noise, {0, 0}, 1.5);
+  CHECK_FALSE(fibre_lattice_pitch_px(noise));
+  // Smaller than the square the spectrum is taken of, even with a bundle.
+  CHECK_FALSE(fibre_lattice_pitch_px(chart_view(5.4, 0)(cv::Rect(0, 0, 255, 400))));
+}
