@@ -91,8 +91,9 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
 bool is_unmeasured(const ElementResult& r, bool chart_photograph);
 
 // Chart photographs: an element that shows no bars (unresolved `ok`, or
-// `aliased`) while the next two finer elements of its orientation are
-// resolved with m significantly above its own is `damaged`: a transfer
+// `aliased`) while the next two finer elements measured in its orientation
+// (each one or two steps of the series past the one before) are resolved
+// with m significantly above its own is `damaged`: a transfer
 // function does not rise with frequency, so the loss is local (dust, a
 // scratch, a defect of the chart, the blurred edge of the field), not the
 // optics'. It is unmeasured: never resolved, bridged by the chain, and its
