@@ -300,3 +300,49 @@ TEST_CASE("chart: an 8-bit sRGB JPEG (linearised on load)") {
   d.px_per_mm = 36;
   check_against_truth(render_photo(dir, "phone", true, d), "8-bit sRGB JPEG");
 }
+
+TEST_CASE("chart: through a fibre bundle, bars finer than its rows of cores are aliased, the coarser ones measured") {
+  // The generated chart at 36 px/mm, sharp (blur 0.8 px), seen through a
+  // bundle of cores 6 px apart (rows 5.2 px) fused from turned domains:
+  // the bundle samples the chart at its cores, so its Nyquist limit, not
+  // the camera's, bounds what can be resolved.
+  TempDir dir("chart");
+  ChartScene c;
+  c.view = view_at(36);
+  c.blur_sigma_px = 0.8;
+  const Scene s = scene_of(c);
+  const RenderResult r = render_scene(s, chart(), pinhole_camera());
+  cv::Mat img = r.image.clone();
+  const FibreBundle bundle(6.0, 10.0, img.cols, img.rows);
+  img.forEach<float>([&](float& v, const int* yx) { v *= static_cast<float>(bundle.transmission(yx[1], yx[0])); });
+  const std::filesystem::path file = dir.path / "bundle.tif";
+  write_image(file, img);
+  const ChartMeasurement run = measure_chart(load_image(file), {});
+  const ChartDetection& D = run.detection;
+  const Measurement& M = run.measurement;
+  REQUIRE(D.found);
+  REQUIRE(M.usable);
+  CHECK(D.fibre_lattice_pitch_px == doctest::Approx(bundle.row_pitch_px()).epsilon(0.05));
+  // Nyquist is the bundle's: one line pair per two rows of cores.
+  CHECK(M.nyquist_h_lp_per_mm == doctest::Approx(36 / (2 * bundle.row_pitch_px())).epsilon(0.08));
+  int aliased = 0, measured_ok = 0;
+  for (const ElementResult& e : M.elements) {
+    CAPTURE(e.group);
+    CAPTURE(e.element);
+    CAPTURE(e.px_per_bar);
+    if (e.px_per_bar < D.fibre_lattice_pitch_px && e.status != ElementStatus::out_of_view &&
+        e.status != ElementStatus::fit_failed) {
+      CHECK(e.status == ElementStatus::aliased);
+      CHECK(e.note.find("fibre bundle") != std::string::npos);
+      ++aliased;
+    }
+    if (e.px_per_bar > 1.2 * D.fibre_lattice_pitch_px && e.status == ElementStatus::ok) ++measured_ok;
+    if (e.resolved) CHECK(e.px_per_bar >= D.fibre_lattice_pitch_px);
+  }
+  // G1E6 (5.1 px per bar) in both orientations; finer elements are not
+  // found under the honeycomb at all. G0E1-G1E5 are measured.
+  CHECK(aliased >= 2);
+  CHECK(measured_ok >= 16);
+  for (const Limit* l : {&M.horizontal, &M.vertical})
+    if (l->any_resolved) CHECK(l->lp_per_mm <= 36 / (2 * D.fibre_lattice_pitch_px) * 1.05);
+}

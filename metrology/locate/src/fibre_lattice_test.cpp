@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <numbers>
-#include <vector>
 
 #include <doctest/doctest.h>
 #include <opencv2/core.hpp>
@@ -33,37 +32,20 @@ bool on_bar(int x, int y) {
   return false;
 }
 
-// The bars seen through a bundle of cores `spacing_px` apart (no bundle:
-// spacing 0), with noise of sigma 0.02. A real bundle is fused from
-// multi-fibres whose lattices are turned a little against each other, and
-// its spectrum shows a ring with six peaks (dev_01, dev_02): here 12
-// domains (the cells nearest to random points), each lattice turned by
-// turn_deg +- 8 degrees and shifted.
+// The bars seen through a bundle of cores `spacing_px` apart, its
+// domains turned by about `turn_deg` (FibreBundle; no bundle: spacing 0),
+// with noise of sigma 0.02.
 cv::Mat chart_view(double spacing_px, double turn_deg) {
-  cv::RNG rng(static_cast<uint64_t>(100 * spacing_px + turn_deg) + 1);
-  struct Domain {
-    double x, y, c, s, dx, dy;
-  };
-  std::vector<Domain> domains;
-  for (int k = 0; k < 12; ++k) {
-    const double a = (turn_deg + rng.uniform(-8.0, 8.0)) * std::numbers::pi / 180;
-    domains.push_back({rng.uniform(0.0, 400.0), rng.uniform(0.0, 400.0), std::cos(a), std::sin(a),
-                       rng.uniform(0.0, spacing_px), rng.uniform(0.0, spacing_px)});
-  }
   cv::Mat img(400, 400, CV_32F);
+  const FibreBundle bundle(spacing_px > 0 ? spacing_px : 1, turn_deg, img.cols, img.rows, 12,
+                           static_cast<uint64_t>(100 * spacing_px + turn_deg) + 1);
   for (int y = 0; y < img.rows; ++y)
     for (int x = 0; x < img.cols; ++x) {
-      double fibres = 1.0;
-      if (spacing_px > 0) {
-        const Domain* d = &domains.front();
-        for (const Domain& e : domains)
-          if (std::hypot(x - e.x, y - e.y) < std::hypot(x - d->x, y - d->y)) d = &e;
-        fibres = fibre_transmission(d->c * x - d->s * y + d->dx, d->s * x + d->c * y + d->dy, spacing_px);
-      }
+      const double fibres = spacing_px > 0 ? bundle.transmission(x, y) : 1.0;
       img.at<float>(y, x) = static_cast<float>(fibres * (on_bar(x, y) ? 0.2 : 0.9));
     }
   cv::Mat noise(img.size(), CV_32F);
-  rng.fill(noise, cv::RNG::NORMAL, 0.0, 0.02);
+  cv::randn(noise, 0.0, 0.02);
   return img + noise;
 }
 
