@@ -1,7 +1,9 @@
 #pragma once
 // A grey patch made ready for Tesseract (private to metrology/labels): the
 // contrast normalised, the ink dark on white, stray ink removed, the text
-// scaled to the OCR character height, binarised (Otsu) and framed in white.
+// scaled to the OCR character height, binarised (Otsu; with
+// Counters::reopen a blob is binarised again within the ink, see
+// label_reader.h) and framed in white.
 
 #include <optional>
 
@@ -21,7 +23,10 @@ struct OcrPatch {
 // 5 px; only bars; more than six separate blobs; or strokes too thick for
 // numerals (blobs). Throws std::invalid_argument for an empty or multi-channel
 // patch.
-// `counters`: see Counters (label_reader.h).
+// With Counters::reopen, text whose strokes are too thick at Otsu's
+// threshold is binarised again at Otsu's threshold within the ink, and
+// kept only when it stays whole (as many pieces, 3/4 of its height) and
+// its strokes are thin enough then.
 std::optional<OcrPatch> prepare_ocr_patch(const cv::Mat& patch, Ink ink, double ocr_char_height_px,
                                           Counters counters = Counters::keep);
 

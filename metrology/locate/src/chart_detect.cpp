@@ -424,19 +424,18 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   }
   // Under a fibre bundle's honeycomb the cores cut every bar into dots at
   // full resolution and alias an octave down, and break the printed
-  // numbers' strokes: the chart is found and its numbers read on a copy
-  // smoothed to 6 % of the lattice's amplitude (sigma 0.38 pitch: dev_01
-  // 1.8 px, dev_02 2.6 px; bars two pitches wide keep half theirs), its
-  // bars against the mottle left (4 robust sigmas of the local contrast),
-  // not the pixel noise the smoothing removed. There dev_01 shows G6E5,
-  // G6E6 and G7E1-E2, which the image itself hides. The chart is measured
-  // on the image itself (chart_measure.cpp).
+  // numbers' strokes: the chart is found and its numbers read on a
+  // smoothed copy (kLatticeSmoothingPitches: dev_01 1.8 px, dev_02 2.6
+  // px), its bars held against the mottle left, not the pixel noise the
+  // smoothing removed. There dev_01 shows G6E5, G6E6 and G7E1-E2, which
+  // the image itself hides. The chart is measured on the image itself
+  // (chart_measure.cpp).
   const std::optional<double> lattice_pitch_px = fibre_lattice_pitch_px(*finite);
   D.fibre_lattice_pitch_px = lattice_pitch_px.value_or(0);
   cv::Mat smoothed;
-  if (lattice_pitch_px) cv::GaussianBlur(*finite, smoothed, {0, 0}, 0.38 * *lattice_pitch_px);
+  if (lattice_pitch_px) cv::GaussianBlur(*finite, smoothed, {0, 0}, kLatticeSmoothingPitches * *lattice_pitch_px);
   const cv::Mat& img = lattice_pitch_px ? smoothed : *finite;
-  const double contrast_sigmas = lattice_pitch_px ? 4 : 0;
+  const double contrast_sigmas = lattice_pitch_px ? kLatticeMottleSigmas : 0;
   // The image scale and the polarity that show more elements
   // (chart_detect_internal.h, ImageScale; a chart has one polarity).
   PatternsFound found = find_patterns(img, options.min_bar_px, ImageScale::linear, contrast_sigmas);

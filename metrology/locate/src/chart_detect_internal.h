@@ -75,6 +75,11 @@ PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, ImageScale sc
 // nullopt when there is none with a pitch of 3-10 px, or the image is
 // smaller than the square (every real capture not taken through a bundle).
 std::optional<double> fibre_lattice_pitch_px(const cv::Mat& img);
+// Under such a lattice the chart is found on a copy smoothed with Gaussian
+// sigma kLatticeSmoothingPitches x its pitch (the lattice keeps 6 % of its
+// amplitude, bars one pitch wide half theirs), its bars held against
+// kLatticeMottleSigmas robust sigmas of the local contrast left.
+constexpr double kLatticeSmoothingPitches = 0.38, kLatticeMottleSigmas = 4;
 
 // One horizontal run of marked pixels of a mask: x0..x1 inclusive, row y.
 struct MaskRun {
@@ -203,6 +208,7 @@ struct NumberImages {
   int levels = 0;     // octaves down the pyramid
   double bar_px = 0;  // the finest element's bar width there
   NumberSite small, cleaned;  // cleaned.img: without_fine_texture(small.img), once needed
+  NumberSite check;           // under a fibre bundle: small smoothed more, which must read alike
 };
 
 // The anchor from the printed group and element numbers, read by OCR

@@ -71,6 +71,7 @@ TEST_CASE("chart detection: positive and negative, rotated and mirrored, anchore
       const ChartDetection d = detect_chart(*view, o);
       CHECK(d.light_bars == negative);
       CHECK(d.anchor == ChartAnchor::largest_group);
+      CHECK(d.fibre_lattice_pitch_px == 0);  // a chart's bars make no honeycomb
       check_indices(d);
     }
   }

@@ -144,15 +144,15 @@ Vec2 shift_to_uncut(const cv::Rect& box, int width, int height) {
 // measured on): the band is moved once to centre the ink and read again,
 // and a digit still cut is not read.
 std::optional<NumberReading> read_site(LabelReader& reader, const cv::Mat& img, const ChartDetection::Arrangement& A,
-                                       const Site& site, Ink ink) {
+                                       const Site& site, Ink ink, Counters counters) {
   std::optional<NumberReading> r =
-      reader.read_number(upright_patch(img, A, site.center_px, site.width, site.height), ink, Counters::reopen);
+      reader.read_number(upright_patch(img, A, site.center_px, site.width, site.height), ink, counters);
   if (!r) return r;
   const Vec2 shift = shift_to_uncut(r->box_px, site.width, site.height);
   if (shift.x == 0 && shift.y == 0) return r;
   const Vec2 moved = site.center_px + shift.x * chart_x_px(A) + shift.y * A.down_px;
   if (!inside(img, moved, site.width, site.height, A.down_px)) return std::nullopt;
-  r = reader.read_number(upright_patch(img, A, moved, site.width, site.height), ink, Counters::reopen);
+  r = reader.read_number(upright_patch(img, A, moved, site.width, site.height), ink, counters);
   if (!r) return r;
   const Vec2 still = shift_to_uncut(r->box_px, site.width, site.height);
   if (still.x != 0 || still.y != 0) return std::nullopt;
@@ -166,6 +166,9 @@ std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const Ch
                                                    const std::vector<ChartElement>& partial, const cv::Mat& img,
                                                    int phase, std::string& note, int min_readings) {
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
+  // Under a fibre bundle the numbers are read smoothed (chart_labels.cpp),
+  // where a blurred numeral's counters fill in at Otsu's threshold.
+  const Counters counters = D.fibre_lattice_pitch_px > 0 ? Counters::reopen : Counters::keep;
   std::vector<Site> sites;
   for (const std::vector<ChartElement>* list : {&kept, &partial})
     for (const ChartElement& e : *list) {
@@ -179,7 +182,7 @@ std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const Ch
   std::map<int, int> votes;  // j -> readings that fit k = phase + 12 j
   int read = 0, unfit = 0;
   for (const Site& site : sites) {
-    const std::optional<NumberReading> r = read_site(reader, img, D.arrangement, site, ink);
+    const std::optional<NumberReading> r = read_site(reader, img, D.arrangement, site, ink, counters);
     if (!r || r->box_px.height < kMinLabelCharPx) continue;
     ++read;
     bool fits = false;

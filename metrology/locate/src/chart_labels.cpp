@@ -31,6 +31,14 @@ namespace {
 // Absolute indices the largest element found may have: groups -2..9.
 constexpr int kMinIndex = -12, kMaxIndex = 59;
 constexpr size_t kMaxBoxes = 40;
+// Under a fibre bundle (ChartDetection::fibre_lattice_pitch_px), the
+// numbers are read on the detection's copy smoothed once more by this many
+// lattice pitches (0.48 in all: the honeycomb keeps 1 % of its amplitude),
+// and must read alike smoothed by kCheckSmoothingPitches instead (0.59 in
+// all). On dev_01 and dev_02, both encodings, 0.3 and 0.45 anchor all four
+// right; 0.38 and 0.5 leave two relative, and neither pair anchors one
+// wrong, where a single smoothing did.
+constexpr double kNumberSmoothingPitches = 0.3, kCheckSmoothingPitches = 0.45;
 
 Vec2 box_center(const cv::Rect& b) { return {b.x + 0.5 * b.width, b.y + 0.5 * b.height}; }
 
@@ -303,6 +311,7 @@ ChartDetection halved(const ChartDetection& D, std::vector<ChartElement>& kept, 
   const double f = std::exp2(-levels);
   auto to_small = [&](Vec2 p) { return from_octave(p, -levels); };
   ChartDetection S = D;
+  S.fibre_lattice_pitch_px *= f;
   for (ChartElement& e : S.elements) e.period_px *= f;
   for (BarPattern& p : S.patterns) {
     p.center_px = to_small(p.center_px);
@@ -352,14 +361,15 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
       ++images.levels, images.bar_px *= 0.5;
     images.small.img = img;
     if (D.fibre_lattice_pitch_px > 0) {
-      // `img` is smoothed at 0.38 lattice pitch already (detect_chart);
-      // once more makes 0.54, where the honeycomb keeps 0.3 % of its
-      // amplitude and no longer closes a 6's counter (at 0.43 in all the
-      // 16-bit copy of dev_01 reads its 6 as an 8; at 0.63 that of dev_02
-      // reads no number).
-      cv::Mat smoothed;
-      cv::GaussianBlur(img, smoothed, {0, 0}, 0.38 * D.fibre_lattice_pitch_px);
+      // `img` is smoothed at kLatticeSmoothingPitches already (detect_chart);
+      // the numbers are read smoothed a little more, where a 6's counter
+      // opens, and must read alike smoothed more again (below).
+      cv::Mat smoothed, check;
+      cv::GaussianBlur(img, smoothed, {0, 0}, kNumberSmoothingPitches * D.fibre_lattice_pitch_px);
+      cv::GaussianBlur(img, check, {0, 0}, kCheckSmoothingPitches * D.fibre_lattice_pitch_px);
       images.small.img = smoothed;
+      images.check.img = check;
+      for (int l = 0; l < images.levels; ++l) cv::pyrDown(images.check.img, images.check.img);
     }
     for (int l = 0; l < images.levels; ++l) cv::pyrDown(images.small.img, images.small.img);
     images.source_data = img.data;
@@ -367,6 +377,23 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   std::vector<ChartElement> kept_small = kept, partial_small = partial;
   ChartDetection S = images.levels == 0 ? D : halved(D, kept_small, partial_small, images.levels);
   bool anchored = anchor_at_scale(S, kept_small, partial_small, images.small, phase, note);
+  // Under a fibre bundle's honeycomb a 6 and an 8 differ by a counter the
+  // lattice half fills: how much smoothing opens it decides the reading
+  // (dev_01's 8-bit frame read its group number 6 as an 8, all two groups
+  // high, when the lattice's pitch moved by 1 %). The anchor stands only
+  // where the numbers read alike on two smoothings.
+  if (anchored && !images.check.img.empty()) {
+    ChartDetection C = S;
+    std::string check_note;
+    const bool agree = anchor_at_scale(C, kept_small, partial_small, images.check, phase, check_note) &&
+                       C.largest_index == S.largest_index;
+    if (!agree) {
+      note = fmt::format("under the fibre bundle's honeycomb the printed numbers do not read alike smoothed a "
+                         "little more ({}; then {})",
+                         note, check_note);
+      return false;
+    }
+  }
   // Only with the phase known: the numbers are then read upright as the
   // arrangement turns them, and a group number must fit the group's
   // parity. Read in the eight axis turns instead, a cleaned 20-degree

@@ -3,6 +3,7 @@
 // a grating of one direction, noise and small images give none.
 
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 #include <doctest/doctest.h>
@@ -35,14 +36,14 @@ bool on_bar(int x, int y) {
 // The bars seen through a bundle of cores `spacing_px` apart, its
 // domains turned by about `turn_deg` (FibreBundle; no bundle: spacing 0),
 // with noise of sigma 0.02.
-cv::Mat chart_view(double spacing_px, double turn_deg) {
+cv::Mat chart_view(double spacing_px, double turn_deg, bool bars = true, std::uint64_t seed = 0) {
   cv::Mat img(400, 400, CV_32F);
   const FibreBundle bundle(spacing_px > 0 ? spacing_px : 1, turn_deg, img.cols, img.rows, 12,
-                           static_cast<uint64_t>(100 * spacing_px + turn_deg) + 1);
+                           seed ? seed : static_cast<uint64_t>(100 * spacing_px + turn_deg) + 1);
   for (int y = 0; y < img.rows; ++y)
     for (int x = 0; x < img.cols; ++x) {
       const double fibres = spacing_px > 0 ? bundle.transmission(x, y) : 1.0;
-      img.at<float>(y, x) = static_cast<float>(fibres * (on_bar(x, y) ? 0.2 : 0.9));
+      img.at<float>(y, x) = static_cast<float>(fibres * (bars && on_bar(x, y) ? 0.2 : 0.9));
     }
   cv::Mat noise(img.size(), CV_32F);
   cv::randn(noise, 0.0, 0.02);
@@ -79,4 +80,21 @@ TEST_CASE("bars, a grating of one direction, noise and small images show no fibr
   CHECK_FALSE(fibre_lattice_pitch_px(noise));
   // Smaller than the square the spectrum is taken of, even with a bundle.
   CHECK_FALSE(fibre_lattice_pitch_px(chart_view(5.4, 0)(cv::Rect(0, 0, 255, 400))));
+}
+
+TEST_CASE("a bundle coarser than 10 px per row gives none, never a harmonic's pitch") {
+  // A hexagonal lattice also rings at sqrt(3), 2 and sqrt(7) times its
+  // first radius; for coarse cores the sqrt(7) ring can stand out most.
+  for (const bool bars : {false, true})
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+      CAPTURE(bars);
+      CAPTURE(seed);
+      for (const double spacing_px : {12.0, 14.0, 17.0}) {
+        CAPTURE(spacing_px);
+        CHECK_FALSE(fibre_lattice_pitch_px(chart_view(spacing_px, 10, bars, seed)));
+      }
+      // Rows 9.5 px apart: within range, found right or not at all.
+      if (const std::optional<double> pitch = fibre_lattice_pitch_px(chart_view(11, 10, bars, seed)))
+        CHECK(*pitch == doctest::Approx(11 * std::sqrt(3.0) / 2).epsilon(0.04));
+    }
 }

@@ -47,10 +47,19 @@ void add_missing_patterns(const ChartDetection& D, Measurement& M) {
 }
 
 // Nyquist at the chart plane, from the largest element's scale (its H and
-// V patterns come first; a single-pattern detection has one).
-void set_nyquist(const std::vector<PatternFrame>& frames, Measurement& M) {
-  M.nyquist_h_lp_per_mm = 0.5 * frames.front().px_per_mm;
-  M.nyquist_v_lp_per_mm = 0.5 * frames[std::min<size_t>(1, frames.size() - 1)].px_per_mm;
+// V patterns come first; a single-pattern detection has one): the
+// camera's, or a fibre bundle's, whose rows of cores sample the chart
+// (grade_beyond_fibre_sampling), with a warning that says so.
+void set_nyquist(const std::vector<PatternFrame>& frames, const ChartDetection& D, Measurement& M) {
+  const double sampling_px = std::max(1.0, D.fibre_lattice_pitch_px);
+  M.nyquist_h_lp_per_mm = 0.5 * frames.front().px_per_mm / sampling_px;
+  M.nyquist_v_lp_per_mm = 0.5 * frames[std::min<size_t>(1, frames.size() - 1)].px_per_mm / sampling_px;
+  if (D.fibre_lattice_pitch_px > 0)
+    M.warnings.push_back(fmt::format(
+        "a fibre bundle's honeycomb is over the image (rows of cores {:.2f} px apart): the chart was found on a "
+        "copy smoothed at that scale and measured on the image itself; elements with fewer px per bar are "
+        "aliased, and Nyquist is the bundle's",
+        D.fibre_lattice_pitch_px));
 }
 
 void start_measurement(const LoadedImage& image, Measurement& M) {
@@ -66,16 +75,17 @@ void start_measurement(const LoadedImage& image, Measurement& M) {
 // beyond its Nyquist limit, whatever the camera behind it resolves, and
 // any modulation they show is the lattice's beat, not bars (dev_01: G7E4
 // at 4.5 px per bar under rows 4.65 px apart fits m = 0.32 +- 0.15, where
-// the eye sees only the honeycomb). Such elements are `aliased`, and
-// Nyquist is the bundle's.
+// the eye sees only the honeycomb). Such elements are `aliased`, their m
+// unread. (A hexagonal lattice samples up to 2/sqrt(3) as finely along
+// some directions: this limit is the conservative one, the same for both
+// orientations at any turn.)
 void grade_beyond_fibre_sampling(const ChartDetection& D, Measurement& M) {
   const double pitch_px = D.fibre_lattice_pitch_px;
   if (pitch_px <= 0) return;
-  M.nyquist_h_lp_per_mm /= pitch_px;
-  M.nyquist_v_lp_per_mm /= pitch_px;
   for (ElementResult& e : M.elements)
     if (e.status == ElementStatus::ok && e.px_per_bar < pitch_px) {
       e.status = ElementStatus::aliased;
+      e.m = e.m_sigma = 0;
       e.note = fmt::format("{:.2f} px per bar is finer than the fibre bundle's rows of cores ({:.2f} px apart), "
                            "which sample the chart: beyond the bundle's Nyquist limit",
                            e.px_per_bar, pitch_px);
@@ -240,8 +250,10 @@ ChartTrack make_track(const LoadedImage& image, const ChartDetection& D, const s
     p.strip = placed.strip;
     p.sampling = jobs[j].sampling;
     const ElementResult& e = M.elements[j];
+    // Not under a fibre bundle's rows (two pitches per bar and more): the
+    // honeycomb stays with the camera, and finer bars would track it.
     if (!D.patterns[refs[j].pattern].predicted && !refs[j].lone && e.status == ElementStatus::ok && e.m >= kAnchorMinM &&
-        e.px_per_bar >= kAnchorMinPxPerBar)
+        e.px_per_bar >= std::max(kAnchorMinPxPerBar, 2 * D.fibre_lattice_pitch_px))
       candidates.push_back(j);
   }
   smooth_directions(candidates, T);
@@ -353,7 +365,7 @@ ChartFrameResult measure_tracked(const LoadedImage& image, const ChartMeasureOpt
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, context, fitted)});
   M.elements = T.elements;
   for (size_t k = 0; k < fitted.size(); ++k) M.elements[index[k]] = fitted[k];
-  set_nyquist(frames, M);
+  set_nyquist(frames, T.detection, M);
 
   ChartTrack next = T;
   next.motion = motion.motion;
@@ -419,7 +431,7 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
         "visible bars; frame a coarser group or bring the chart into focus";
     return out;
   }
-  set_nyquist(frames, M);
+  set_nyquist(frames, D, M);
 
   std::vector<size_t> graded;
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false, true}, M.elements, &graded)});

@@ -64,7 +64,7 @@ TEST_CASE("damaged: not when a finer neighbour is unresolved or within the error
   CHECK(d.elements[1].status == ElementStatus::damaged);
 }
 
-TEST_CASE("damaged: across one missing element of the series, not across two") {
+TEST_CASE("damaged: across one missing element of the series, not across two missing in a row") {
   Criterion c;
   // E2 shows no bars; E3 was never found (cut away by the field's edge):
   // E4 and E5, one and two steps past the gap, show the bars.
