@@ -323,6 +323,9 @@ TEST_CASE("chart: through a fibre bundle, bars finer than its rows of cores are 
   REQUIRE(D.found);
   REQUIRE(M.usable);
   CHECK(D.fibre_lattice_pitch_px == doctest::Approx(bundle.row_pitch_px()).epsilon(0.05));
+  CHECK(chart_to_json(D)["fibre_lattice_pitch_px"].get<double>() == doctest::Approx(D.fibre_lattice_pitch_px));
+  CHECK(std::any_of(M.warnings.begin(), M.warnings.end(),
+                    [](const std::string& w) { return w.find("fibre bundle's honeycomb") != std::string::npos; }));
   // Nyquist is the bundle's: one line pair per two rows of cores.
   CHECK(M.nyquist_h_lp_per_mm == doctest::Approx(36 / (2 * bundle.row_pitch_px())).epsilon(0.08));
   int aliased = 0, measured_ok = 0;
