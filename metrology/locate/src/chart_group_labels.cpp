@@ -141,22 +141,22 @@ Vec2 shift_to_uncut(const cv::Rect& box, int width, int height) {
 // The number at `site`. A digit cut by one edge of the band is no evidence
 // (a "7" cut at its foot reads as a confident 2 or 3: dev_01, whose group
 // numbers stand nearer their columns than on the charts the band was
-// measured on): the band is moved once to centre the ink and read again,
-// and a digit still cut is not read.
+// measured on): the band is moved to centre the ink and read again, up to
+// kMaxMoves times (each move shows more of the digit, so centres it
+// better), and a digit still cut is not read.
+constexpr int kMaxMoves = 3;
 std::optional<NumberReading> read_site(LabelReader& reader, const cv::Mat& img, const ChartDetection::Arrangement& A,
                                        const Site& site, Ink ink, Counters counters) {
-  std::optional<NumberReading> r =
-      reader.read_number(upright_patch(img, A, site.center_px, site.width, site.height), ink, counters);
-  if (!r) return r;
-  const Vec2 shift = shift_to_uncut(r->box_px, site.width, site.height);
-  if (shift.x == 0 && shift.y == 0) return r;
-  const Vec2 moved = site.center_px + shift.x * chart_x_px(A) + shift.y * A.down_px;
-  if (!inside(img, moved, site.width, site.height, A.down_px)) return std::nullopt;
-  r = reader.read_number(upright_patch(img, A, moved, site.width, site.height), ink, counters);
-  if (!r) return r;
-  const Vec2 still = shift_to_uncut(r->box_px, site.width, site.height);
-  if (still.x != 0 || still.y != 0) return std::nullopt;
-  return r;
+  Vec2 center = site.center_px;
+  for (int move = 0;; ++move) {
+    const std::optional<NumberReading> r =
+        reader.read_number(upright_patch(img, A, center, site.width, site.height), ink, counters);
+    if (!r) return r;
+    const Vec2 shift = shift_to_uncut(r->box_px, site.width, site.height);
+    if (shift.x == 0 && shift.y == 0) return r;
+    center = center + shift.x * chart_x_px(A) + shift.y * A.down_px;
+    if (move == kMaxMoves || !inside(img, center, site.width, site.height, A.down_px)) return std::nullopt;
+  }
 }
 
 }  // namespace
