@@ -209,6 +209,7 @@ struct NumberImages {
   double bar_px = 0;  // the finest element's bar width there
   NumberSite small, cleaned;  // cleaned.img: without_fine_texture(small.img), once needed
   NumberSite check;           // under a fibre bundle: small smoothed more, which must read alike
+  NumberSite cleaned_check;   // without_fine_texture(check.img), once needed
 };
 
 // The anchor from the printed group and element numbers, read by OCR

@@ -381,19 +381,20 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
   // lattice half fills: how much smoothing opens it decides the reading
   // (dev_01's 8-bit frame read its group number 6 as an 8, all two groups
   // high, when the lattice's pitch moved by 1 %). The anchor stands only
-  // where the numbers read alike on two smoothings.
-  if (anchored && !images.check.img.empty()) {
+  // where the numbers read alike on two smoothings, cleaned or not.
+  const auto read_alike = [&](NumberSite& check, int min_readings, std::string& anchor_note) {
+    if (images.check.img.empty()) return true;
     ChartDetection C = S;
     std::string check_note;
-    const bool agree = anchor_at_scale(C, kept_small, partial_small, images.check, phase, check_note) &&
-                       C.largest_index == S.largest_index;
-    if (!agree) {
-      note = fmt::format("under the fibre bundle's honeycomb the printed numbers do not read alike smoothed a "
-                         "little more ({}; then {})",
-                         note, check_note);
-      return false;
-    }
-  }
+    if (anchor_at_scale(C, kept_small, partial_small, check, phase, check_note, min_readings) &&
+        C.largest_index == S.largest_index)
+      return true;
+    anchor_note = fmt::format("under the fibre bundle's honeycomb the printed numbers do not read alike smoothed "
+                              "a little more ({}; then {})",
+                              anchor_note, check_note);
+    return false;
+  };
+  if (anchored && !read_alike(images.check, 1, note)) return false;
   // Only with the phase known: the numbers are then read upright as the
   // arrangement turns them, and a group number must fit the group's
   // parity. Read in the eight axis turns instead, a cleaned 20-degree
@@ -407,6 +408,11 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
     std::string smooth_note;
     anchored = anchor_at_scale(S, kept_small, partial_small, images.cleaned, phase, smooth_note, 3);
     if (anchored) note = "with texture finer than the strokes removed, " + smooth_note;
+    if (anchored && !images.check.img.empty()) {
+      if (images.cleaned_check.img.empty())
+        images.cleaned_check.img = without_fine_texture(images.check.img, images.bar_px);
+      if (!read_alike(images.cleaned_check, 3, note)) return false;  // D keeps its relative index
+    }
   }
   D.largest_index = S.largest_index;
   return anchored;

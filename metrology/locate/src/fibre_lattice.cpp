@@ -125,6 +125,19 @@ std::optional<HexPeaks> hexagonal_peaks(const Spectrum& s, const Rings& rings, i
   return h;
 }
 
+// Whether radius r stands where a hexagonal lattice of first radius r1
+// rings beyond its first: at sqrt(a^2 + ab + b^2) times r1 for whole a, b
+// (sqrt(3), 2, sqrt(7), 3, sqrt(12), sqrt(13), ...), within 3 %.
+bool is_shell_of(double r, double r1) {
+  const double k = (r / r1) * (r / r1);
+  for (int a = 1; a * a <= k * 1.07; ++a)
+    for (int b = 0; b <= a; ++b) {
+      const int norm = a * a + a * b + b * b;
+      if (norm > 1 && std::abs(std::sqrt(k / norm) - 1) < 0.03) return true;
+    }
+  return false;
+}
+
 }  // namespace
 
 std::optional<double> fibre_lattice_pitch_px(const cv::Mat& img) {
@@ -150,13 +163,15 @@ std::optional<double> fibre_lattice_pitch_px(const cv::Mat& img) {
   // weakest. Round
   // cores pass less power the finer the ring; bars and their beat with the
   // cores, which show peaks too, are far weaker than a lattice over the
-  // whole square. A lattice coarser than kMaxPitchPx then gives none, not
-  // a harmonic's pitch.
+  // whole square, and the found ring must be one of its shells. A lattice
+  // with rows kMaxPitchPx to kMaxHarmonicPitchPx apart then gives none,
+  // not a harmonic's pitch (rows still further apart are not looked for).
   double radius = found->mean_radius;
   const int r_floor = static_cast<int>(std::ceil(n / kMaxHarmonicPitchPx));
   for (int r = r_floor; r < std::lround(found->mean_radius / std::sqrt(3.0) * 1.06); ++r) {
     const std::optional<HexPeaks> first = hexagonal_peaks(s, rings, r);
-    if (first && first->weakest_power >= found->weakest_power && ring_excess(r) >= std::log(kMinRingExcess)) {
+    if (first && first->weakest_power >= found->weakest_power && ring_excess(r) >= std::log(kMinRingExcess) &&
+        is_shell_of(found->mean_radius, first->mean_radius)) {
       radius = first->mean_radius;
       break;
     }

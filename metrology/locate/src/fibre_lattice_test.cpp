@@ -46,7 +46,8 @@ cv::Mat chart_view(double spacing_px, double turn_deg, bool bars = true, std::ui
       img.at<float>(y, x) = static_cast<float>(fibres * (bars && on_bar(x, y) ? 0.2 : 0.9));
     }
   cv::Mat noise(img.size(), CV_32F);
-  cv::randn(noise, 0.0, 0.02);
+  cv::RNG rng(seed + 7);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, 0.02);
   return img + noise;
 }
 
@@ -74,7 +75,8 @@ TEST_CASE("bars, a grating of one direction, noise and small images show no fibr
       grating.at<float>(y, x) = static_cast<float>(0.5 + 0.4 * std::cos(2 * std::numbers::pi * (x + 0.3 * y) / 5.0));
   CHECK_FALSE(fibre_lattice_pitch_px(grating));
   cv::Mat noise(400, 400, CV_32F);
-  cv::randn(noise, 0.5, 0.1);
+  cv::RNG rng(3);
+  rng.fill(noise, cv::RNG::NORMAL, 0.5, 0.1);
   CHECK_FALSE(fibre_lattice_pitch_px(noise));
   cv::GaussianBlur(noise, noise, {0, 0}, 1.5);
   CHECK_FALSE(fibre_lattice_pitch_px(noise));

@@ -74,7 +74,7 @@ void start_measurement(const LoadedImage& image, Measurement& M) {
 // the chart at its cores: bars narrower than the cores' row pitch are
 // beyond its Nyquist limit, whatever the camera behind it resolves, and
 // any modulation they show is the lattice's beat, not bars (dev_01: G7E4
-// at 4.5 px per bar under rows 4.65 px apart fits m = 0.32 +- 0.15, where
+// at 4.5 px per bar under rows 4.6 px apart fits m = 0.32 +- 0.15, where
 // the eye sees only the honeycomb). Such elements are `aliased`, their m
 // unread. (A hexagonal lattice samples up to 2/sqrt(3) as finely along
 // some directions: this limit is the conservative one, the same for both
@@ -425,13 +425,13 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   const bool scaled = chart::chart_level_steps(D, refs, jobs, profiles, mo, M.reference, &step_note);
   if (!step_note.empty()) M.warnings.push_back(step_note);
   M.stage_seconds.push_back({"reference_patch", t.seconds()});
+  set_nyquist(frames, D, M);
   if (!scaled) {
     M.problem =
         "the chart's level step cannot be measured: no element in full view has 3 or more pixels per bar with "
         "visible bars; frame a coarser group or bring the chart into focus";
     return out;
   }
-  set_nyquist(frames, D, M);
 
   std::vector<size_t> graded;
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false, true}, M.elements, &graded)});
