@@ -35,9 +35,10 @@ constexpr size_t kMaxBoxes = 40;
 // numbers are read on the detection's copy smoothed once more by this many
 // lattice pitches (0.48 in all: the honeycomb keeps 1 % of its amplitude),
 // and must read alike smoothed by kCheckSmoothingPitches instead (0.59 in
-// all). On dev_01 and dev_02, both encodings, 0.3 and 0.45 anchor all four
-// right; 0.38 and 0.5 leave two relative, and neither pair anchors one
-// wrong, where a single smoothing did.
+// all). On dev_01 and dev_02 in both encodings they anchor three of the
+// four right, dev_01's 16-bit copy staying relative; with the pitch off by
+// up to 4 % none is anchored wrong, where a single smoothing anchored
+// dev_01 two groups high (docs/CHART.md).
 constexpr double kNumberSmoothingPitches = 0.3, kCheckSmoothingPitches = 0.45;
 
 Vec2 box_center(const cv::Rect& b) { return {b.x + 0.5 * b.width, b.y + 0.5 * b.height}; }
