@@ -26,6 +26,14 @@ struct Bar {
   double score = 0;  // closeness to an ideal filled 5:1 rectangle (lower is better)
 };
 
+// 1.4826 x the median of `abs_values` (reordered): the standard deviation
+// of zero-mean Gaussian values, robustly; 0 for none.
+double robust_sigma(std::vector<float>& abs_values) {
+  if (abs_values.empty()) return 0;
+  std::nth_element(abs_values.begin(), abs_values.begin() + abs_values.size() / 2, abs_values.end());
+  return 1.4826 * abs_values[abs_values.size() / 2];
+}
+
 // Noise level: the median absolute deviation of the difference between the
 // image and its 3x3 mean, scaled for Gaussian noise. Used to set the
 // binarisation margin so that noise alone makes no bars.
@@ -52,10 +60,8 @@ double noise_sigma(const cv::Mat& img) {
       v.push_back(std::abs(r1[x] - sum / 9));
     }
   }
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  // For white noise, img - mean3x3 has sd sigma * sqrt(8/9); MAD -> sd is 1.4826.
-  return 1.4826 * v[v.size() / 2] / std::sqrt(8.0 / 9.0);
+  // For white noise, img - mean3x3 has sd sigma * sqrt(8/9).
+  return robust_sigma(v) / std::sqrt(8.0 / 9.0);
 }
 
 // Bar candidates: 8-connected components of `mask` shaped like a filled
@@ -205,8 +211,8 @@ cv::Mat stabilised(const cv::Mat& linear) {
   return out;
 }
 
-// The robust spread (1.4826 x the median absolute value, on every third
-// pixel of every third row) of a local-contrast image.
+// The robust spread of a local-contrast image (robust_sigma, on every
+// third pixel of every third row).
 double local_contrast_sigma(const cv::Mat& diff) {
   std::vector<float> v;
   v.reserve(static_cast<size_t>(diff.rows / 3 + 1) * (diff.cols / 3 + 1));
@@ -214,9 +220,7 @@ double local_contrast_sigma(const cv::Mat& diff) {
     const float* row = diff.ptr<float>(y);
     for (int x = 0; x < diff.cols; x += 3) v.push_back(std::abs(row[x]));
   }
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return 1.4826 * v[v.size() / 2];
+  return robust_sigma(v);
 }
 
 // Bar candidates in `img` at windows 7 and 15 px: dark ones into `dark`,

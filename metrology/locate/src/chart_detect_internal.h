@@ -69,10 +69,11 @@ enum class ImageScale { linear, stabilised };
 PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, ImageScale scale, double contrast_sigmas = 0);
 
 // The row pitch (px) of a coherent fibre bundle's hexagonal core lattice
-// over the image (dev_01: 4.65, dev_02: 6.92), from the power spectrum of
+// over the image (dev_01: 4.61, dev_02: 6.87), from the power spectrum of
 // the image's centred 256 px square: a ring of power well above the radii
 // beside it, with three peaks 60 degrees apart on it (fibre_lattice.cpp);
-// nullopt when there is none with a pitch of 3-10 px, or the image is
+// nullopt when there is none with a pitch of 3-10 px (a lattice with rows
+// 10-20 px apart gives none, not a harmonic's pitch), or the image is
 // smaller than the square (every real capture not taken through a bundle).
 std::optional<double> fibre_lattice_pitch_px(const cv::Mat& img);
 // Under such a lattice the chart is found on a copy smoothed with Gaussian

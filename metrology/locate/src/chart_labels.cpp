@@ -360,19 +360,22 @@ bool anchor_by_printed_numbers(ChartDetection& D, const std::vector<ChartElement
     for (const ChartElement& e : kept) images.bar_px = std::min(images.bar_px, 0.5 * e.period_px);
     while (images.bar_px * 0.5 >= 12 && std::min(img.cols, img.rows) >> (images.levels + 1) >= 64)
       ++images.levels, images.bar_px *= 0.5;
-    images.small.img = img;
-    if (D.fibre_lattice_pitch_px > 0) {
-      // `img` is smoothed at kLatticeSmoothingPitches already (detect_chart);
-      // the numbers are read smoothed a little more, where a 6's counter
-      // opens, and must read alike smoothed more again (below).
-      cv::Mat smoothed, check;
-      cv::GaussianBlur(img, smoothed, {0, 0}, kNumberSmoothingPitches * D.fibre_lattice_pitch_px);
-      cv::GaussianBlur(img, check, {0, 0}, kCheckSmoothingPitches * D.fibre_lattice_pitch_px);
-      images.small.img = smoothed;
-      images.check.img = check;
-      for (int l = 0; l < images.levels; ++l) cv::pyrDown(images.check.img, images.check.img);
-    }
-    for (int l = 0; l < images.levels; ++l) cv::pyrDown(images.small.img, images.small.img);
+    const auto at_level = [&](cv::Mat m) {
+      for (int l = 0; l < images.levels; ++l) cv::pyrDown(m, m);
+      return m;
+    };
+    const auto smoothed = [&](double pitches) {  // its own buffer: `img` is the caller's
+      cv::Mat out;
+      cv::GaussianBlur(img, out, {0, 0}, pitches * D.fibre_lattice_pitch_px);
+      return out;
+    };
+    // Under a fibre bundle `img` is smoothed at kLatticeSmoothingPitches
+    // already (detect_chart); the numbers are read smoothed a little more,
+    // where a 6's counter opens, and must read alike smoothed more again
+    // (below).
+    const bool lattice = D.fibre_lattice_pitch_px > 0;
+    images.small.img = at_level(lattice ? smoothed(kNumberSmoothingPitches) : img);
+    if (lattice) images.check.img = at_level(smoothed(kCheckSmoothingPitches));
     images.source_data = img.data;
   }
   std::vector<ChartElement> kept_small = kept, partial_small = partial;

@@ -98,8 +98,7 @@ struct Rings {
 // within a bin of r, and bins as strong turned by 60 and 120 degrees at
 // its radius (within 6 %, or kPeakRadiusBins on small rings: the bins'
 // own steps, and a bundle's domains turned against each other, spread
-// them), each kMinPeakToMedian times the median power at
-// r or more.
+// them), each kMinPeakToMedian times the median power at r or more.
 struct HexPeaks {
   double mean_radius = 0;  // of the three peaks (finer than a bin)
   double weakest_power = 0;
@@ -117,7 +116,8 @@ std::optional<HexPeaks> hexagonal_peaks(const Spectrum& s, const Rings& rings, i
     const Peak p = strongest_near(s, first.u * std::cos(a) - first.v * std::sin(a),
                                   first.u * std::sin(a) + first.v * std::cos(a), 3);
     const double p_r = std::hypot(p.u, p.v);
-      if (p.power < threshold || std::abs(p_r - first_r) > std::max(0.06 * first_r, kPeakRadiusBins)) return std::nullopt;
+    if (p.power < threshold || std::abs(p_r - first_r) > std::max(0.06 * first_r, kPeakRadiusBins))
+      return std::nullopt;
     h.mean_radius += p_r;
     h.weakest_power = std::min<double>(h.weakest_power, p.power);
   }
@@ -160,10 +160,10 @@ std::optional<double> fibre_lattice_pitch_px(const cv::Mat& img) {
   // its first radius, and for a coarse lattice one of those can stand out
   // more than the first: the first is the smallest radius that rings too,
   // with three peaks 60 degrees apart, each as strong as the found ring's
-  // weakest. Round
-  // cores pass less power the finer the ring; bars and their beat with the
-  // cores, which show peaks too, are far weaker than a lattice over the
-  // whole square, and the found ring must be one of its shells. A lattice
+  // weakest. Round cores pass less power the finer the ring; bars and
+  // their beat with the cores, which show peaks too, are far weaker than a
+  // lattice over the whole square, and the found ring must be one of its
+  // shells. A lattice
   // with rows kMaxPitchPx to kMaxHarmonicPitchPx apart then gives none,
   // not a harmonic's pitch (rows still further apart are not looked for).
   double radius = found->mean_radius;

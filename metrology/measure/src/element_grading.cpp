@@ -320,8 +320,8 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
       for (size_t k = i + 1; k <= i + 2; ++k) {
         const ElementResult& f = *row[k];
         const double steps = std::log(f.lp_per_mm / row[k - 1]->lp_per_mm) / std::log(step);
-        const bool near_in_series = std::abs(steps - std::round(steps)) < 0.15 && std::round(steps) >= 1 &&
-                                    std::round(steps) <= 2;
+        const long whole_steps = std::lround(steps);
+        const bool near_in_series = std::abs(steps - whole_steps) < 0.15 && whole_steps >= 1 && whole_steps <= 2;
         finer_show_bars = finer_show_bars && near_in_series && ok_and_resolved(f, criterion) && f.m >= 0.3 &&
                           f.m - m > 3 * std::hypot(f.m_sigma, sigma);
       }

@@ -203,7 +203,8 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
   j["indices"] = d.anchor == ChartAnchor::none ? "relative" : "absolute";
   j["patterns_found"] = d.patterns.size();
   // The rows' pitch of a fibre bundle's honeycomb over the image, or null.
-  j["fibre_lattice_pitch_px"] = d.fibre_lattice_pitch_px > 0 ? nlohmann::json(d.fibre_lattice_pitch_px) : nlohmann::json();
+  j["fibre_lattice_pitch_px"] =
+      d.fibre_lattice_pitch_px > 0 ? nlohmann::json(d.fibre_lattice_pitch_px) : nlohmann::json();
   // Found (binarised) elements, and apart from them those placed by their
   // column or the nesting of the pairs (measured the same way).
   // An element of which one pattern was found and the other placed beside
