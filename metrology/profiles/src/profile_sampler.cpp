@@ -16,6 +16,8 @@ void ProfileSamplingOptions::validate() const {
     throw std::invalid_argument("along-bar fraction must be in (0, 1]");
   if (!(margin_bar_widths >= 0.5 && margin_bar_widths <= 5))
     throw std::invalid_argument("profile margin must be in [0.5, 5] bar widths");
+  if (!(dense_bin_samples >= 16 && dense_bin_samples <= 1e6))
+    throw std::invalid_argument("profile dense-bin sample count must be in [16, 1e6]");
 }
 
 Strip element_strip(const ElementLayout& e, const ProfileSamplingOptions& o) {
@@ -224,28 +226,46 @@ PixelBox pixel_box(const std::vector<Vec2>& px, int W, int H) {
           std::min(H - 1, int(std::ceil(y1)))};
 }
 
-// Every finite pixel of `box` whose centre maps into the strip goes into its
-// bin (in w) and into `samples`; masked and clipped pixels are counted in `out`.
+// The row and column step at which a strip is read
+// (ProfileSamplingOptions::dense_bin_samples): 1, or odd, so that every
+// phase of a Bayer mosaic and of JPEG's 8 px blocks is read alike.
+int pixel_stride(const std::array<Vec2, 4>& outline_px, int fit_bins, double bin_px, double dense_bin_samples) {
+  double area_px2 = 0;  // the strip's outline, shoelace formula
+  for (size_t i = 0; i < outline_px.size(); ++i) {
+    const Vec2 &a = outline_px[i], &b = outline_px[(i + 1) % outline_px.size()];
+    area_px2 += 0.5 * (a.x * b.y - b.x * a.y);
+  }
+  const double per_bin = std::abs(area_px2) / std::max(1, fit_bins);
+  int k = 1;
+  while (k + 2 <= bin_px && per_bin / ((k + 2) * (k + 2)) >= dense_bin_samples) k += 2;
+  return k;
+}
+
+// Every finite pixel of `box` (every `stride`-th row and column) whose
+// centre maps into the strip goes into its bin (in w) and into `samples`;
+// masked and clipped pixels are counted in `out`.
 void accumulate_pixels(const cv::Mat& lum, const PixelMap& map_uv, const ScaleWarp& warp, const PixelBox& box,
-                       const Strip& s, double clip_level, BinSums& sums, std::vector<Sample>& samples,
+                       int stride, const Strip& s, double clip_level, BinSums& sums, std::vector<Sample>& samples,
                        std::vector<unsigned char>& clip_bits, SampledProfile& out) {
   ProfileData& d = out.data;
   const double U = s.half_u_mm, V = s.half_v_mm;
-  samples.reserve(size_t(std::max(0, box.x1 - box.x0 + 1)) * size_t(std::max(0, box.y1 - box.y0 + 1)));
+  samples.reserve(size_t(std::max(0, (box.x1 - box.x0) / stride + 1)) *
+                  size_t(std::max(0, (box.y1 - box.y0) / stride + 1)));
   const double inv_bin = 1 / d.bin_mm;
   const float clip_at = static_cast<float>(clip_level * 0.9999);
-  for (int y = box.y0; y <= box.y1; ++y) {
+  for (int y = box.y0; y <= box.y1; y += stride) {
     const float* row = lum.ptr<float>(y);
     // Along a row, u and v are cubics in x: stepped by forward differences
     // (the third is constant), taken from the map at the row's first four
-    // pixels; evaluating the map per pixel cost more than the rest of the loop.
-    const int x0 = box.x0;
-    const Vec2 p0 = map_uv(x0, y), p1 = map_uv(x0 + 1, y), p2 = map_uv(x0 + 2, y), p3 = map_uv(x0 + 3, y);
+    // pixels read; evaluating the map per pixel cost more than the rest of
+    // the loop.
+    const int x0 = box.x0, k = stride;
+    const Vec2 p0 = map_uv(x0, y), p1 = map_uv(x0 + k, y), p2 = map_uv(x0 + 2 * k, y), p3 = map_uv(x0 + 3 * k, y);
     double u = p0.x, v = p0.y;
     double du = p1.x - p0.x, dv = p1.y - p0.y;
     double ddu = p2.x - 2 * p1.x + p0.x, ddv = p2.y - 2 * p1.y + p0.y;
     const double dddu = p3.x - 3 * p2.x + 3 * p1.x - p0.x, dddv = p3.y - 3 * p2.y + 3 * p1.y - p0.y;
-    for (int x = x0; x <= box.x1; ++x, u += du, v += dv, du += ddu, dv += ddv, ddu += dddu, ddv += dddv) {
+    for (int x = x0; x <= box.x1; x += k, u += du, v += dv, du += ddu, dv += ddv, ddu += dddu, ddv += dddv) {
       if (std::abs(u) > U || std::abs(v) > V) continue;
       const double w = warp(u);  // binned in w (ScaleWarp)
       const float value = row[x];
@@ -450,7 +470,8 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   BinSums sums(d.bin_count);
   std::vector<Sample> samples;  // kept for the along-bar light correction
   std::vector<unsigned char> clip_bits(d.bin_count, 0);
-  accumulate_pixels(lum, map_uv, warp, pixel_box(px, W, H), s, clip_level, sums, samples, clip_bits, out);
+  const int stride = pixel_stride(out.outline_px, d.fit_end - d.fit_begin, o.bin_px, o.dense_bin_samples);
+  accumulate_pixels(lum, map_uv, warp, pixel_box(px, W, H), stride, s, clip_level, sums, samples, clip_bits, out);
   const double mean_abs_level = set_bin_means(d, sums, out.pixels_used);
   std::vector<int> filled;  // bins holding samples (aligned pixels leave gaps)
   for (int b = 0; b < d.bin_count; ++b)

@@ -156,3 +156,66 @@ TEST_CASE("clipped pixels make their bins bounds: black an upper, saturation a l
   // With no clip level, nothing is a bound.
   CHECK(sample_strip(lum, frame, artwork, strip, so, 0).data.bound.empty());
 }
+
+TEST_CASE("a strip hundreds of px wide is read on an odd stride, with the same bin means") {
+  // Three bars of 0.5 mm at 200 px/mm (100 px per bar), blurred and noisy,
+  // with bins 8 px wide: a bin holds about 8 x 700 pixels, over 9 x the
+  // dense-bin count, so every 3rd row and column is read.
+  const ElementLayout e = triplet(0.5);
+  ProfileSamplingOptions so;
+  so.bin_px = 8;
+  const Strip strip = element_strip(e, so);
+  const double px_per_mm = 200;
+  cv::Mat lum(1400, 1400, CV_32F, cv::Scalar(0.8));
+  for (const RectMm& b : e.bars_mm)
+    cv::rectangle(lum, cv::Point(int(700 + b.x0 * px_per_mm), int(700 + b.y0 * px_per_mm)),
+                  cv::Point(int(700 + b.x1 * px_per_mm) - 1, int(700 + b.y1 * px_per_mm) - 1), cv::Scalar(0.1),
+                  cv::FILLED);
+  cv::GaussianBlur(lum, lum, {0, 0}, 20);
+  cv::Mat noise(lum.size(), CV_32F);
+  cv::setRNGSeed(7);
+  cv::randn(noise, 0, 0.02);
+  lum += noise;
+  std::vector<ArtworkShape> shapes;
+  for (const RectMm& b : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
+  const IndexedArtwork artwork(shapes);
+  const PatternFrame frame({700, 700}, {1, 0}, px_per_mm);
+  ProfileSamplingOptions every_pixel = so;
+  every_pixel.dense_bin_samples = 1e6;
+  const SampledProfile all = sample_strip(lum, frame, artwork, strip, every_pixel, 0);
+  const SampledProfile strided = sample_strip(lum, frame, artwork, strip, so, 0);
+  REQUIRE(all.in_view);
+  REQUIRE(strided.in_view);
+  // Every 3rd row and column: a ninth of the pixels, up to the edges.
+  CHECK(strided.pixels_used * 9 == doctest::Approx(all.pixels_used).epsilon(0.02));
+  REQUIRE(strided.data.bin_count == all.data.bin_count);
+  for (int b = all.data.fit_begin; b < all.data.fit_end; ++b)
+    if (all.data.count[b] > 0) {
+      // 2 or 3 of a bin's 8 columns are read: at least half the average.
+      REQUIRE(strided.data.count[b] >= 0.5 * so.dense_bin_samples);
+    }
+  // The bins' means sit at their samples' mean positions, which the stride
+  // moves: compared through the model, both read the blur alike, and right
+  // (a Gaussian of 0.1 mm: m(1 lp/mm) = exp(-2 pi^2 0.1^2) = 0.821).
+  ProfileFitOptions fo;
+  fo.contrast = 0.1 / 0.8 - 1;
+  const ProfileFit fit_all = fit_profile(all.data, fo), fit_strided = fit_profile(strided.data, fo);
+  REQUIRE(fit_all.usable);
+  REQUIRE(fit_strided.usable);
+  const double m_all = fit_all.transfer(1), m_strided = fit_strided.transfer(1);
+  const double sigma = fit_strided.transfer_sigma(1);
+  CHECK(sigma > 0);
+  CHECK(std::abs(m_strided - m_all) < 2 * sigma);
+  CHECK(std::abs(m_strided - std::exp(-2 * M_PI * M_PI * 0.01)) < 3 * sigma + 0.01);
+  CHECK(strided.noise_sd == doctest::Approx(all.noise_sd).epsilon(0.1));
+  // A strip of ordinary size is read whole.
+  ProfileSamplingOptions fine = so;
+  fine.bin_px = 2;
+  const SampledProfile whole = sample_strip(lum, frame, artwork, strip, fine, 0);
+  const SampledProfile whole_ref = sample_strip(lum, frame, artwork, strip, [&] {
+    ProfileSamplingOptions o = fine;
+    o.dense_bin_samples = 1e6;
+    return o;
+  }(), 0);
+  CHECK(whole.pixels_used == whole_ref.pixels_used);
+}

@@ -28,6 +28,11 @@ struct ProfileSamplingOptions {
   double bin_px = 0.25;             // bin width across the bars, in pixels, [0.05, 1]
   double along_fraction = 0.7;      // central share of the bar length used, (0, 1]
   double margin_bar_widths = 1.5;   // fit window beyond the outer bars, [0.5, 5]
+  // A strip whose bins would each hold more than 9x this many pixels (an
+  // element hundreds of px wide filling a 4K frame: 15 000 a bin) is read
+  // on every k-th row and column, k odd, the largest that leaves this many
+  // a bin on average and is no wider than a bin. [16, 1e6]
+  double dense_bin_samples = 256;
   void validate() const;            // throws std::invalid_argument
 };
 
