@@ -239,10 +239,12 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
            {"found", e.h >= 0 ? "horizontal_bars" : "vertical_bars"},
            {"status", e.partial == ChartElement::Partial::partner_out_of_view ? "out_of_view" : "fit_failed"},
            {"reason", e.partial_reason}});
-  if (!d.elements.empty()) {
-    const ChartElement& e = d.elements.front();
-    j["largest_element"] = {{"group", e.group}, {"element", e.element}, {"period_px", e.period_px}};
-  }
+  // The element the indices count from (relative index 0): a predicted or
+  // placed element can be coarser than it.
+  const auto largest = std::find_if(d.elements.begin(), d.elements.end(),
+                                    [](const ChartElement& e) { return e.relative_index == 0; });
+  if (largest != d.elements.end())
+    j["largest_element"] = {{"group", largest->group}, {"element", largest->element}, {"period_px", largest->period_px}};
   return j;
 }
 
