@@ -87,8 +87,9 @@ std::string chart_anchor_text(const ChartDetection& d) {
     return d.arrangement.recognised
                ? "none (arrangement recognised but no group label read: the group is known modulo 2 only)"
                : "none (arrangement not recognised)";
-  const ChartElement& largest = d.elements.front();
-  const std::string found = fmt::format("largest element found = G{}E{}", largest.group, largest.element);
+  const ChartElement* largest = largest_found(d);
+  const std::string found =
+      largest ? fmt::format("largest element found = G{}E{}", largest->group, largest->element) : "no element";
   switch (d.anchor) {
     case ChartAnchor::arrangement:
       return fmt::format("the arrangement ({}group labels read; {})", d.arrangement.mirrored ? "mirrored; " : "",

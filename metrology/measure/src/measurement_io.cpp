@@ -1,6 +1,5 @@
 #include "tactres/measure/measurement_io.h"
 
-#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -239,11 +238,7 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
            {"found", e.h >= 0 ? "horizontal_bars" : "vertical_bars"},
            {"status", e.partial == ChartElement::Partial::partner_out_of_view ? "out_of_view" : "fit_failed"},
            {"reason", e.partial_reason}});
-  // The element the indices count from (relative index 0): a predicted or
-  // placed element can be coarser than it.
-  const auto largest = std::find_if(d.elements.begin(), d.elements.end(),
-                                    [](const ChartElement& e) { return e.relative_index == 0; });
-  if (largest != d.elements.end())
+  if (const ChartElement* largest = largest_found(d))
     j["largest_element"] = {{"group", largest->group}, {"element", largest->element}, {"period_px", largest->period_px}};
   return j;
 }

@@ -1,8 +1,12 @@
-// MeasureOptions: the presets' profile bins per element (bin_px_for).
+// MeasureOptions: the presets' profile bins per element (bin_px_for); the chart JSON's largest element.
 
 #include <doctest/doctest.h>
 
+#include <nlohmann/json.hpp>
+
+#include "tactres/locate/chart_detect.h"
 #include "tactres/measure/measurement.h"
+#include "tactres/measure/measurement_io.h"
 
 using namespace tactres;
 
@@ -19,4 +23,23 @@ TEST_CASE("options: a profile bin is the preset's, capped per bar on coarse elem
   // bins do not merge a bar's sub-pixel phases.
   CHECK(fast.bin_px_for(1.3) == doctest::Approx(0.65));
   CHECK(fast.bin_px_for(fast.min_px_per_bar) == doctest::Approx(0.5 * fast.min_px_per_bar));
+}
+
+TEST_CASE("chart JSON: largest_element is the element the indices count from, not a coarser placed partner") {
+  ChartDetection D;
+  D.found = true;
+  D.patterns.resize(4);
+  D.patterns[1].predicted = true;  // G-1E6's V triplet placed beside its found H triplet
+  ChartElement placed, found;
+  placed.h = 0, placed.v = 1, placed.relative_index = -1, placed.group = -1, placed.element = 6, placed.period_px = 44;
+  found.h = 2, found.v = 3, found.relative_index = 0, found.group = 0, found.element = 1, found.period_px = 40;
+  D.elements = {placed, found};
+  REQUIRE(largest_found(D) == &D.elements[1]);
+  const nlohmann::json j = chart_to_json(D);
+  CHECK(j["largest_element"]["group"] == 0);
+  CHECK(j["largest_element"]["element"] == 1);
+  CHECK(j["largest_element"]["period_px"] == 40);
+  D.elements.clear();
+  CHECK(largest_found(D) == nullptr);
+  CHECK_FALSE(chart_to_json(D).contains("largest_element"));
 }

@@ -157,33 +157,50 @@ TEST_CASE("clipped pixels make their bins bounds: black an upper, saturation a l
   CHECK(sample_strip(lum, frame, artwork, strip, so, 0).data.bound.empty());
 }
 
-TEST_CASE("a strip hundreds of px wide is read on an odd stride, with the same bin means") {
-  // Three bars of 0.5 mm at 200 px/mm (100 px per bar), blurred and noisy,
-  // with bins 8 px wide: a bin holds about 8 x 700 pixels, over 9 x the
-  // dense-bin count, so every 3rd row and column is read.
-  const ElementLayout e = triplet(0.5);
-  ProfileSamplingOptions so;
-  so.bin_px = 8;
-  const Strip strip = element_strip(e, so);
-  const double px_per_mm = 200;
-  cv::Mat lum(1400, 1400, CV_32F, cv::Scalar(0.8));
-  for (const RectMm& b : e.bars_mm)
-    cv::rectangle(lum, cv::Point(int(700 + b.x0 * px_per_mm), int(700 + b.y0 * px_per_mm)),
-                  cv::Point(int(700 + b.x1 * px_per_mm) - 1, int(700 + b.y1 * px_per_mm) - 1), cv::Scalar(0.1),
-                  cv::FILLED);
+namespace {
+
+// Three bars of w mm drawn dark (0.1) on light (0.8) through `plane`
+// (which stretches x only), blurred by 20 px, with noise of 0.02.
+cv::Mat drawn_triplet(const ElementLayout& e, const PlaneToImage& plane, cv::Size size) {
+  cv::Mat lum(size, CV_32F, cv::Scalar(0.8));
+  for (const RectMm& b : e.bars_mm) {
+    const Vec2 a = *plane.project({b.x0, b.y0}), c = *plane.project({b.x1, b.y1});
+    cv::rectangle(lum, cv::Point(int(std::lround(a.x)), int(std::lround(a.y))),
+                  cv::Point(int(std::lround(c.x)) - 1, int(std::lround(c.y)) - 1), cv::Scalar(0.1), cv::FILLED);
+  }
   cv::GaussianBlur(lum, lum, {0, 0}, 20);
   cv::Mat noise(lum.size(), CV_32F);
   cv::setRNGSeed(7);
   cv::randn(noise, 0, 0.02);
-  lum += noise;
+  return lum + noise;
+}
+
+}  // namespace
+
+TEST_CASE("a strip hundreds of px wide is read on an odd stride, and fits the same m") {
+  // Three bars of 0.5 mm at about 200 px/mm (100 px per bar) through a lens
+  // whose scale grows 6 % per mm across the bars (so the pixel -> (u, v)
+  // map's higher differences, stepped over k pixels, matter), with bins 8
+  // px wide: a bin holds about 8 x 350 pixels (bars 500 px long, 70 % of
+  // them read), over 9 x the dense-bin count, so every 3rd row and column
+  // is read.
+  const ElementLayout e = triplet(0.5);
+  ProfileSamplingOptions so;
+  so.bin_px = 8;
+  so.along_fraction = 0.7;
+  so.margin_bar_widths = 1.5;
+  const Strip strip = element_strip(e, so);
+  StretchedPlane plane;
+  plane.center_px = {700, 700};
+  plane.s0_px_per_mm = 200;
+  const cv::Mat lum = drawn_triplet(e, plane, {1400, 1400});
   std::vector<ArtworkShape> shapes;
   for (const RectMm& b : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
   const IndexedArtwork artwork(shapes);
-  const PatternFrame frame({700, 700}, {1, 0}, px_per_mm);
   ProfileSamplingOptions every_pixel = so;
   every_pixel.dense_bin_samples = 1e6;
-  const SampledProfile all = sample_strip(lum, frame, artwork, strip, every_pixel, 0);
-  const SampledProfile strided = sample_strip(lum, frame, artwork, strip, so, 0);
+  const SampledProfile all = sample_strip(lum, plane, artwork, strip, every_pixel, 0);
+  const SampledProfile strided = sample_strip(lum, plane, artwork, strip, so, 0);
   REQUIRE(all.in_view);
   REQUIRE(strided.in_view);
   // Every 3rd row and column: a ninth of the pixels, up to the edges.
@@ -193,10 +210,13 @@ TEST_CASE("a strip hundreds of px wide is read on an odd stride, with the same b
     if (all.data.count[b] > 0) {
       // 2 or 3 of a bin's 8 columns are read: at least half the average.
       REQUIRE(strided.data.count[b] >= 0.5 * so.dense_bin_samples);
+      // Each bin's samples sit where the whole read's do, to a third of a bin.
+      CHECK(std::abs(strided.data.u_mean_mm[b] - all.data.u_mean_mm[b]) < all.data.bin_mm / 3);
     }
   // The bins' means sit at their samples' mean positions, which the stride
   // moves: compared through the model, both read the blur alike, and right
-  // (a Gaussian of 0.1 mm: m(1 lp/mm) = exp(-2 pi^2 0.1^2) = 0.821).
+  // (20 px at the centre's 200 px/mm, a Gaussian of 0.1 mm: m(1 lp/mm) =
+  // exp(-2 pi^2 0.1^2) = 0.821).
   ProfileFitOptions fo;
   fo.contrast = 0.1 / 0.8 - 1;
   const ProfileFit fit_all = fit_profile(all.data, fo), fit_strided = fit_profile(strided.data, fo);
@@ -208,14 +228,31 @@ TEST_CASE("a strip hundreds of px wide is read on an odd stride, with the same b
   CHECK(std::abs(m_strided - m_all) < 2 * sigma);
   CHECK(std::abs(m_strided - std::exp(-2 * M_PI * M_PI * 0.01)) < 3 * sigma + 0.01);
   CHECK(strided.noise_sd == doctest::Approx(all.noise_sd).epsilon(0.1));
-  // A strip of ordinary size is read whole.
-  ProfileSamplingOptions fine = so;
-  fine.bin_px = 2;
-  const SampledProfile whole = sample_strip(lum, frame, artwork, strip, fine, 0);
-  const SampledProfile whole_ref = sample_strip(lum, frame, artwork, strip, [&] {
-    ProfileSamplingOptions o = fine;
-    o.dense_bin_samples = 1e6;
-    return o;
-  }(), 0);
-  CHECK(whole.pixels_used == whole_ref.pixels_used);
+}
+
+TEST_CASE("a strip of ordinary density is read whole") {
+  // Bars of 0.2 mm (40 px) with bins 8 px wide: about 8 x 140 pixels a
+  // bin, under 9 x the dense-bin count.
+  const ElementLayout e = triplet(0.2);
+  ProfileSamplingOptions so;
+  so.bin_px = 8;
+  so.along_fraction = 0.7;
+  so.margin_bar_widths = 1.5;
+  const Strip strip = element_strip(e, so);
+  StretchedPlane plane;
+  plane.center_px = {300, 300};
+  plane.s0_px_per_mm = 200;
+  const cv::Mat lum = drawn_triplet(e, plane, {600, 600});
+  std::vector<ArtworkShape> shapes;
+  for (const RectMm& b : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
+  const IndexedArtwork artwork(shapes);
+  ProfileSamplingOptions every_pixel = so;
+  every_pixel.dense_bin_samples = 1e6;
+  const SampledProfile whole = sample_strip(lum, plane, artwork, strip, so, 0);
+  const SampledProfile reference = sample_strip(lum, plane, artwork, strip, every_pixel, 0);
+  REQUIRE(whole.in_view);
+  CHECK(whole.pixels_used == reference.pixels_used);
+  CHECK(whole.data.count == reference.data.count);
+  for (int b = 0; b < whole.data.bin_count; ++b)
+    if (whole.data.count[b] > 0) CHECK(whole.data.value[b] == reference.data.value[b]);  // empty bins: NaN
 }

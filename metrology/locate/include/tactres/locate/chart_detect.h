@@ -178,6 +178,16 @@ inline bool found_in_image(const ChartDetection& D, const ChartElement& e) {
   return (e.h >= 0 && !D.patterns[e.h].predicted) || (e.v >= 0 && !D.patterns[e.v].predicted);
 }
 
+// The largest element found: the one the indices count from (relative
+// index 0, which --largest-group names). A partner placed beside a found
+// pattern (ChartDetection::partners_placed) can be coarser. Null when the
+// chart was not found.
+inline const ChartElement* largest_found(const ChartDetection& D) {
+  for (const ChartElement& e : D.elements)
+    if (e.relative_index == 0) return &e;
+  return nullptr;
+}
+
 ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& options);
 
 }  // namespace tactres

@@ -5,7 +5,9 @@
 // (x or y) and along-axis v. Every pixel whose centre maps into the strip
 // (through the plane's map to the image, camera/plane_map.h: the pose and
 // the lens model in layout mode, never through an undistorted copy)
-// contributes its value at its own u: pixels are binned by u at a fraction
+// contributes its value at its own u (every k-th row and column only where
+// the bins would hold thousands each, ProfileSamplingOptions::
+// dense_bin_samples): pixels are binned by u at a fraction
 // of a pixel, which averages along the bars and oversamples the profile the
 // way a slanted edge does. Strictly, by w, u's distance in pixels divided
 // by the centre's scale (docs/CONVENTIONS.md, "The measurand m(f)"): the
@@ -25,7 +27,8 @@
 namespace tactres {
 
 struct ProfileSamplingOptions {
-  double bin_px = 0.25;             // bin width across the bars, in pixels, [0.05, 1]
+  double bin_px = 0.25;             // bin width across the bars, in pixels: a preset's in [0.05, 1],
+                                    // widened on coarse elements (MeasureOptions::bin_px_for)
   double along_fraction = 0.7;      // central share of the bar length used, (0, 1]
   double margin_bar_widths = 1.5;   // fit window beyond the outer bars, [0.5, 5]
   // A strip whose bins would each hold more than 9x this many pixels (an
