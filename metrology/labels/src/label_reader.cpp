@@ -154,6 +154,13 @@ std::optional<NumberReading> LabelReader::read_number(const cv::Mat& patch, Ink 
   return r;
 }
 
+std::optional<cv::Rect> LabelReader::glyph_box(const cv::Mat& patch, Ink ink, Counters counters) const {
+  const std::optional<OcrPatch> ocr =
+      labels_detail::prepare_ocr_patch(patch, ink, options_.ocr_char_height_px, counters);
+  if (!ocr) return std::nullopt;
+  return ocr->text_px;
+}
+
 std::vector<NumberReading> LabelReader::read_number_any_orientation(const cv::Mat& patch, Ink ink) {
   std::vector<NumberReading> found;
   const std::optional<OcrPatch> ocr = labels_detail::prepare_ocr_patch(patch, ink, options_.ocr_char_height_px);

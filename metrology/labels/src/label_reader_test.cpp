@@ -261,3 +261,28 @@ TEST_CASE("reopened counters read blurred numerals that Otsu fills in, and no wr
     CHECK(!reader->read_number(noise, Ink::automatic, Counters::reopen));
   }
 }
+
+TEST_CASE("glyph_box: the ink read_number would read, whole or cut by the patch's edge, read or not") {
+  LabelReader* reader = shared_reader();
+  REQUIRE(reader);
+  const labels_test::TestFont& font = labels_test::test_fonts().front();
+  const cv::Mat whole = labels_test::camera_patch(labels_test::render_text(font, "4", 30, 12), {});
+  const std::optional<cv::Rect> box = reader->glyph_box(whole);
+  REQUIRE(box);
+  // The digit, 30 px tall, inside the 12 px margin.
+  CHECK(box->height == doctest::Approx(30).epsilon(0.15));
+  CHECK(box->y > 0);
+  CHECK(box->y + box->height < whole.rows);
+  const std::optional<NumberReading> read = reader->read_number(whole);
+  REQUIRE(read);
+  CHECK(read->box_px == *box);
+  // Its top 18 px cut off (the margin and a fifth of the digit): the box
+  // runs to the top edge, and keeps the rest of the digit's height.
+  const cv::Mat cut = whole.rowRange(18, whole.rows);
+  const std::optional<cv::Rect> cut_box = reader->glyph_box(cut);
+  REQUIRE(cut_box);
+  CHECK(cut_box->y == 0);
+  CHECK(cut_box->height == doctest::Approx(box->y + box->height - 18).epsilon(0.1));
+  // No ink that stands out: nothing.
+  CHECK_FALSE(reader->glyph_box(cv::Mat(30, 30, CV_32F, cv::Scalar(0.5))));
+}

@@ -141,21 +141,35 @@ Vec2 shift_to_uncut(const cv::Rect& box, int width, int height) {
 // The number at `site`. A digit cut by one edge of the band is no evidence
 // (a "7" cut at its foot reads as a confident 2 or 3: dev_01, whose group
 // numbers stand nearer their columns than on the charts the band was
-// measured on): the band is moved to centre the ink and read again, up to
+// measured on), and often reads as nothing (dev_03 turned 180 deg: its "4"
+// above G4E1, 0.3 bar widths off the band's middle, lost the top of its
+// arms): the band is moved to centre the ink, read or not, and read again, up to
 // kMaxMoves times (each move shows more of the digit, so centres it
 // better), and a digit still cut is not read.
 constexpr int kMaxMoves = 3;
 std::optional<NumberReading> read_site(LabelReader& reader, const cv::Mat& img, const ChartDetection::Arrangement& A,
                                        const Site& site, Ink ink, Counters counters) {
   Vec2 center = site.center_px;
+  int width = site.width;
   for (int move = 0;; ++move) {
-    const std::optional<NumberReading> r =
-        reader.read_number(upright_patch(img, A, center, site.width, site.height), ink, counters);
-    if (!r) return r;
-    const Vec2 shift = shift_to_uncut(r->box_px, site.width, site.height);
+    const cv::Mat patch = upright_patch(img, A, center, width, site.height);
+    const std::optional<NumberReading> r = reader.read_number(patch, ink, counters);
+    const std::optional<cv::Rect> glyphs = r ? std::optional<cv::Rect>(r->box_px) : reader.glyph_box(patch, ink, counters);
+    if (!glyphs) return std::nullopt;
+    const Vec2 shift = shift_to_uncut(*glyphs, width, site.height);
     if (shift.x == 0 && shift.y == 0) return r;
+    // Unread ink is followed only when most of it is in the band (the move,
+    // half what is cut off, at most a quarter of what shows: two thirds or
+    // more of the glyph): a band that only grazes a digit, as one placed by
+    // a wrong way of the arrangement does, must not be moved onto it.
+    if (!r && (std::abs(shift.x) > 0.25 * glyphs->width || std::abs(shift.y) > 0.25 * glyphs->height))
+      return std::nullopt;
     center = center + shift.x * chart_x_px(A) + shift.y * A.down_px;
-    if (move == kMaxMoves || !inside(img, center, site.width, site.height, A.down_px)) return std::nullopt;
+    // Near the frame the moved band narrows (the tilt of dev_03 mirrored
+    // put a corner of its "4"'s band past the edge), down to the ink's
+    // width and a margin.
+    while (!inside(img, center, width, site.height, A.down_px) && width - 2 >= glyphs->width + 4) width -= 2;
+    if (move == kMaxMoves || !inside(img, center, width, site.height, A.down_px)) return std::nullopt;
   }
 }
 

@@ -141,6 +141,13 @@ class LabelReader {
   std::optional<NumberReading> read_number(const cv::Mat& patch, Ink ink = Ink::automatic,
                                            Counters counters = Counters::keep);
 
+  // The box (patch pixels) of the glyphs read_number would read, whether
+  // or not they then read as a number; nullopt where read_number refuses
+  // the patch before reading (see the contract above). A caller that
+  // finds them cut by the patch's edge can move the patch and read again.
+  std::optional<cv::Rect> glyph_box(const cv::Mat& patch, Ink ink = Ink::automatic,
+                                    Counters counters = Counters::keep) const;
+
   // Every credible reading over the eight orientations, highest confidence
   // first (empty when none is credible). Each carries the orientation in
   // which the text appears in the patch, and its box in the patch's own
