@@ -72,6 +72,7 @@ const Run& measure_image(const fs::path& image) {
   static std::map<std::string, Run> cache;
   if (auto it = cache.find(image.string()); it != cache.end()) return it->second;
   const fs::path json_path = scratch_dir() / (image.filename().string() + ".json");
+  fs::remove(json_path);  // never an earlier run's
   const std::string cmd = std::string(TACTRES_BINARY) + " measure '" + image.string() + "' --chart usaf1951 -o '" +
                           json_path.string() + "' > /dev/null 2>&1";
   Run r;
@@ -281,6 +282,9 @@ TEST_CASE("real chart captures turned or mirrored are never identified different
       ++identified;
       CHECK((*r.j)["chart"]["largest_element"]["group"] == largest["group"]);
       CHECK((*r.j)["chart"]["largest_element"]["element"] == largest["element"]);
+      // The same element: its period as found (pixels moved only).
+      CHECK((*r.j)["chart"]["largest_element"]["period_px"].get<double>() ==
+            doctest::Approx(largest["period_px"].get<double>()).epsilon(0.05));
     }
   }
   MESSAGE("turned or mirrored: " << identified << " of " << compared << " identified as the original; relative:"

@@ -262,7 +262,7 @@ TEST_CASE("reopened counters read blurred numerals that Otsu fills in, and no wr
   }
 }
 
-TEST_CASE("glyph_box: the ink read_number would read, whole or cut by the patch's edge, read or not") {
+TEST_CASE("glyph_box: the ink read_number would read, whole or cut by the patch's edge") {
   LabelReader* reader = shared_reader();
   REQUIRE(reader);
   const labels_test::TestFont& font = labels_test::test_fonts().front();

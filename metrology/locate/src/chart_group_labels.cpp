@@ -143,32 +143,44 @@ Vec2 shift_to_uncut(const cv::Rect& box, int width, int height) {
 // numbers stand nearer their columns than on the charts the band was
 // measured on), and often reads as nothing (dev_03 turned 180 deg: its "4"
 // above G4E1, 0.3 bar widths off the band's middle, lost the top of its
-// arms): the band is moved to centre the ink, read or not, and read again, up to
+// arms): the band is moved to centre the ink and read again, up to
 // kMaxMoves times (each move shows more of the digit, so centres it
-// better), and a digit still cut is not read.
+// better), and a digit still cut is not read. Ink that reads as nothing is
+// followed only where it fills two thirds of the band along the cut axis
+// (a band that grazes a digit, as one placed by a wrong way of the
+// arrangement does, is not moved onto it), and its reading counts only if
+// the whole glyph is at most 1.5 times what first showed (two thirds of
+// it were in view: a 5 cut below its bowl reads as a 3).
 constexpr int kMaxMoves = 3;
 std::optional<NumberReading> read_site(LabelReader& reader, const cv::Mat& img, const ChartDetection::Arrangement& A,
                                        const Site& site, Ink ink, Counters counters) {
   Vec2 center = site.center_px;
   int width = site.width;
+  std::optional<cv::Size> first_unread;  // the ink's extent when first followed unread
   for (int move = 0;; ++move) {
     const cv::Mat patch = upright_patch(img, A, center, width, site.height);
     const std::optional<NumberReading> r = reader.read_number(patch, ink, counters);
     const std::optional<cv::Rect> glyphs = r ? std::optional<cv::Rect>(r->box_px) : reader.glyph_box(patch, ink, counters);
     if (!glyphs) return std::nullopt;
     const Vec2 shift = shift_to_uncut(*glyphs, width, site.height);
-    if (shift.x == 0 && shift.y == 0) return r;
-    // Unread ink is followed only when most of it is in the band (the move,
-    // half what is cut off, at most a quarter of what shows: two thirds or
-    // more of the glyph): a band that only grazes a digit, as one placed by
-    // a wrong way of the arrangement does, must not be moved onto it.
+    if (shift.x == 0 && shift.y == 0) {
+      const bool grew = first_unread && (glyphs->width > 1.5 * first_unread->width ||
+                                         glyphs->height > 1.5 * first_unread->height);
+      return grew ? std::nullopt : r;
+    }
+    // A glyph cut at one edge is moved by half the band's unfilled extent.
     if (!r && (std::abs(shift.x) > 0.25 * glyphs->width || std::abs(shift.y) > 0.25 * glyphs->height))
       return std::nullopt;
+    if (!r && !first_unread) first_unread = glyphs->size();
     center = center + shift.x * chart_x_px(A) + shift.y * A.down_px;
-    // Near the frame the moved band narrows (the tilt of dev_03 mirrored
-    // put a corner of its "4"'s band past the edge), down to the ink's
-    // width and a margin.
-    while (!inside(img, center, width, site.height, A.down_px) && width - 2 >= glyphs->width + 4) width -= 2;
+    // Near the frame a band moved along the column narrows (the tilt of
+    // dev_03 mirrored put a corner of its "4"'s band past the edge), never
+    // onto the ink's own columns.
+    if (shift.x == 0) {
+      const double ink_half_px = std::max(std::abs(glyphs->x - 0.5 * width),
+                                          std::abs(glyphs->x + glyphs->width - 0.5 * width)) + 2;
+      while (!inside(img, center, width, site.height, A.down_px) && width - 2 >= 2 * ink_half_px) width -= 2;
+    }
     if (move == kMaxMoves || !inside(img, center, width, site.height, A.down_px)) return std::nullopt;
   }
 }
