@@ -280,11 +280,11 @@ TEST_CASE("real chart captures turned or mirrored are never identified different
         continue;
       }
       ++identified;
-      CHECK((*r.j)["chart"]["largest_element"]["group"] == largest["group"]);
-      CHECK((*r.j)["chart"]["largest_element"]["element"] == largest["element"]);
+      const json& got = (*r.j)["chart"]["largest_element"];
+      CHECK(got["group"] == largest["group"]);
+      CHECK(got["element"] == largest["element"]);
       // The same element: its period as found (pixels moved only).
-      CHECK((*r.j)["chart"]["largest_element"]["period_px"].get<double>() ==
-            doctest::Approx(largest["period_px"].get<double>()).epsilon(0.05));
+      CHECK(got["period_px"].get<double>() == doctest::Approx(largest["period_px"].get<double>()).epsilon(0.05));
     }
   }
   MESSAGE("turned or mirrored: " << identified << " of " << compared << " identified as the original; relative:"

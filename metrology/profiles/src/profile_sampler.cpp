@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace tactres {
 
@@ -230,12 +231,9 @@ PixelBox pixel_box(const std::vector<Vec2>& px, int W, int H) {
 // (ProfileSamplingOptions::dense_bin_samples): 1, or odd, so that every
 // phase of a Bayer mosaic and of JPEG's 8 px blocks is read alike.
 int pixel_stride(const std::array<Vec2, 4>& outline_px, int fit_bins, double bin_px, double dense_bin_samples) {
-  double area_px2 = 0;  // the strip's outline, shoelace formula
-  for (size_t i = 0; i < outline_px.size(); ++i) {
-    const Vec2 &a = outline_px[i], &b = outline_px[(i + 1) % outline_px.size()];
-    area_px2 += 0.5 * (a.x * b.y - b.x * a.y);
-  }
-  const double per_bin = std::abs(area_px2) / std::max(1, fit_bins);
+  std::vector<cv::Point2f> outline;
+  for (const Vec2& q : outline_px) outline.emplace_back(static_cast<float>(q.x), static_cast<float>(q.y));
+  const double per_bin = cv::contourArea(outline) / std::max(1, fit_bins);
   int k = 1;
   while (k + 2 <= bin_px && per_bin / ((k + 2) * (k + 2)) >= dense_bin_samples) k += 2;
   return k;

@@ -21,6 +21,13 @@ ElementLayout triplet(double w_mm) {
   return e;
 }
 
+// The element's bars as artwork shapes.
+std::vector<ArtworkShape> bar_shapes(const ElementLayout& e) {
+  std::vector<ArtworkShape> shapes;
+  for (const RectMm& b : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
+  return shapes;
+}
+
 }  // namespace
 
 TEST_CASE("a last-bit change of the image scale does not move the profile's bin grid") {
@@ -34,9 +41,7 @@ TEST_CASE("a last-bit change of the image scale does not move the profile's bin 
   const double u_ext_mm = strip.half_u_mm + strip.extend_u_mm;
   const double px_per_mm = 129 * so.bin_px / (2 * u_ext_mm);  // 129 bins in exact arithmetic
   cv::Mat lum(400, 400, CV_32F, cv::Scalar(0.8));
-  std::vector<ArtworkShape> shapes;
-  for (const RectMm& b : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
-  const IndexedArtwork artwork(shapes);
+  const IndexedArtwork artwork(bar_shapes(e));
   const double scales[] = {px_per_mm, px_per_mm * (1 + 1e-15), px_per_mm * (1 - 1e-15)};
   SampledProfile first;
   for (double s : scales) {
@@ -128,9 +133,7 @@ TEST_CASE("clipped pixels make their bins bounds: black an upper, saturation a l
         if (u_mm >= b.x0 && u_mm < b.x1) lum.at<float>(y, x) = 0.f;
       if (std::abs(u_mm) > 0.32 && std::abs(u_mm) < 0.36) lum.at<float>(y, x) = 0.5f;
     }
-  std::vector<ArtworkShape> shapes;
-  for (const RectMm& b : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
-  const IndexedArtwork artwork(shapes);
+  const IndexedArtwork artwork(bar_shapes(e));
   const PatternFrame frame({200, 200}, {1, 0}, px_per_mm);
   const SampledProfile p = sample_strip(lum, frame, artwork, strip, so, 1.0);
   REQUIRE(p.in_view);
@@ -175,6 +178,32 @@ cv::Mat drawn_triplet(const ElementLayout& e, const PlaneToImage& plane, cv::Siz
   return lum + noise;
 }
 
+// triplet(w_mm) drawn (drawn_triplet) through a plane stretched 6 % per mm
+// at 200 px/mm, centred in a size_px square; its strip read with bins 8 px
+// wide as the options read it, and every pixel.
+struct TwoReads {
+  ProfileSamplingOptions options;
+  SampledProfile read, every_pixel;
+};
+TwoReads read_and_read_whole(double w_mm, int size_px) {
+  const ElementLayout e = triplet(w_mm);
+  TwoReads r;
+  r.options.bin_px = 8;
+  r.options.along_fraction = 0.7;
+  r.options.margin_bar_widths = 1.5;
+  const Strip strip = element_strip(e, r.options);
+  StretchedPlane plane;
+  plane.center_px = {0.5 * size_px, 0.5 * size_px};
+  plane.s0_px_per_mm = 200;
+  const cv::Mat lum = drawn_triplet(e, plane, {size_px, size_px});
+  const IndexedArtwork artwork(bar_shapes(e));
+  ProfileSamplingOptions every_pixel = r.options;
+  every_pixel.dense_bin_samples = 1e6;
+  r.read = sample_strip(lum, plane, artwork, strip, r.options, 0);
+  r.every_pixel = sample_strip(lum, plane, artwork, strip, every_pixel, 0);
+  return r;
+}
+
 }  // namespace
 
 TEST_CASE("a strip hundreds of px wide is read on an odd stride, and fits the same m") {
@@ -184,23 +213,9 @@ TEST_CASE("a strip hundreds of px wide is read on an odd stride, and fits the sa
   // px wide: a bin holds about 8 x 350 pixels (bars 500 px long, 70 % of
   // them read), over 9 x the dense-bin count, so every 3rd row and column
   // is read.
-  const ElementLayout e = triplet(0.5);
-  ProfileSamplingOptions so;
-  so.bin_px = 8;
-  so.along_fraction = 0.7;
-  so.margin_bar_widths = 1.5;
-  const Strip strip = element_strip(e, so);
-  StretchedPlane plane;
-  plane.center_px = {700, 700};
-  plane.s0_px_per_mm = 200;
-  const cv::Mat lum = drawn_triplet(e, plane, {1400, 1400});
-  std::vector<ArtworkShape> shapes;
-  for (const RectMm& b : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
-  const IndexedArtwork artwork(shapes);
-  ProfileSamplingOptions every_pixel = so;
-  every_pixel.dense_bin_samples = 1e6;
-  const SampledProfile all = sample_strip(lum, plane, artwork, strip, every_pixel, 0);
-  const SampledProfile strided = sample_strip(lum, plane, artwork, strip, so, 0);
+  const TwoReads reads = read_and_read_whole(0.5, 1400);
+  const ProfileSamplingOptions& so = reads.options;
+  const SampledProfile &all = reads.every_pixel, &strided = reads.read;
   REQUIRE(all.in_view);
   REQUIRE(strided.in_view);
   // Every 3rd row and column: a ninth of the pixels, up to the edges.
@@ -233,23 +248,8 @@ TEST_CASE("a strip hundreds of px wide is read on an odd stride, and fits the sa
 TEST_CASE("a strip of ordinary density is read whole") {
   // Bars of 0.2 mm (40 px) with bins 8 px wide: about 8 x 140 pixels a
   // bin, under 9 x the dense-bin count.
-  const ElementLayout e = triplet(0.2);
-  ProfileSamplingOptions so;
-  so.bin_px = 8;
-  so.along_fraction = 0.7;
-  so.margin_bar_widths = 1.5;
-  const Strip strip = element_strip(e, so);
-  StretchedPlane plane;
-  plane.center_px = {300, 300};
-  plane.s0_px_per_mm = 200;
-  const cv::Mat lum = drawn_triplet(e, plane, {600, 600});
-  std::vector<ArtworkShape> shapes;
-  for (const RectMm& b : e.bars_mm) shapes.push_back({ArtworkShape::Kind::rect, ArtworkShape::Role::bar, b, {}, 0, {}});
-  const IndexedArtwork artwork(shapes);
-  ProfileSamplingOptions every_pixel = so;
-  every_pixel.dense_bin_samples = 1e6;
-  const SampledProfile whole = sample_strip(lum, plane, artwork, strip, so, 0);
-  const SampledProfile reference = sample_strip(lum, plane, artwork, strip, every_pixel, 0);
+  const TwoReads reads = read_and_read_whole(0.2, 600);
+  const SampledProfile &whole = reads.read, &reference = reads.every_pixel;
   REQUIRE(whole.in_view);
   CHECK(whole.pixels_used == reference.pixels_used);
   CHECK(whole.data.count == reference.data.count);
