@@ -326,29 +326,10 @@ static const char* unfit_data(const ProfileData& data) {
   return finite ? nullptr : "profile has non-finite positions, weights or pattern";
 }
 
-ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options) {
-  options.validate();
-  ProfileFit out;
-  if (const char* problem = unfit_data(data)) {
-    out.problem = problem;
-    return out;
-  }
-
-  GridModel model(data, options.signature, options.fit_shift);
-  auto* cost = new ProfileCost(data, model, options.contrast_slope_per_mm);
-  const int free_params = 3 + (options.fit_shape ? 1 : 0) + (options.fit_contrast ? 1 : 0) +
-                          (options.quadratic_background ? 1 : 0) + (options.fit_shift ? 1 : 0);
-  // Bounds carry no noise to count degrees of freedom with: the
-  // measurements alone must pin the model down.
-  const int measured = cost->residual_count() - cost->bound_count();
-  if (measured < free_params + 3) {
-    delete cost;
-    out.problem = "too few samples across the bars";
-    return out;
-  }
-
-  // Start: ground level from bins where the ideal pattern is empty; the LSF
-  // about one pixel wide (bins are a fraction of a pixel).
+// The fit's start: the ground level from bins where the ideal pattern is
+// empty (from all bins if none is); the LSF about one pixel wide (bins are
+// a fraction of a pixel).
+static void start_point(const ProfileData& data, const ProfileFitOptions& options, double x[kParamCount]) {
   double ground = 0, weight = 0;
   for (int i = data.fit_begin; i < data.fit_end; ++i)
     if (data.count[i] > 0 && std::isfinite(data.value[i]) &&
@@ -367,14 +348,15 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
       options.fit_shape && options.start_beta > 0
           ? std::clamp(options.start_beta, options.beta_min, options.beta_max)
           : 2.0;
-  double x[kParamCount] = {ground / weight, 0.0,
-                           std::clamp(std::log(nu0_start), std::log(1e-3), std::log(2.0 / data.bin_mm)),
-                           beta_start, options.fit_contrast ? -0.5 : options.contrast, 0.0, 0.0};
+  const double start[kParamCount] = {ground / weight, 0.0,
+                                     std::clamp(std::log(nu0_start), std::log(1e-3), std::log(2.0 / data.bin_mm)),
+                                     beta_start, options.fit_contrast ? -0.5 : options.contrast, 0.0, 0.0};
+  std::copy(start, start + kParamCount, x);
+}
 
-  ceres::Problem::Options po;
-  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(po);
-  problem.AddResidualBlock(cost, nullptr, x);
+// The parameters the options hold fixed, and the bounds of the free ones.
+static void constrain(ceres::Problem& problem, double* x, const ProfileData& data,
+                      const ProfileFitOptions& options) {
   std::vector<int> fixed;
   if (!options.fit_shape) fixed.push_back(kBeta);
   if (!options.fit_contrast) fixed.push_back(kContrast);
@@ -397,6 +379,37 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
     problem.SetParameterLowerBound(x, kBeta, options.beta_min);
     problem.SetParameterUpperBound(x, kBeta, options.beta_max);
   }
+}
+
+ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options) {
+  options.validate();
+  ProfileFit out;
+  if (const char* problem = unfit_data(data)) {
+    out.problem = problem;
+    return out;
+  }
+
+  GridModel model(data, options.signature, options.fit_shift);
+  auto* cost = new ProfileCost(data, model, options.contrast_slope_per_mm);
+  const int free_params = 3 + (options.fit_shape ? 1 : 0) + (options.fit_contrast ? 1 : 0) +
+                          (options.quadratic_background ? 1 : 0) + (options.fit_shift ? 1 : 0);
+  // Bounds carry no noise to count degrees of freedom with: the
+  // measurements alone must pin the model down.
+  const int measured = cost->residual_count() - cost->bound_count();
+  if (measured < free_params + 3) {
+    delete cost;
+    out.problem = "too few samples across the bars";
+    return out;
+  }
+
+  double x[kParamCount];
+  start_point(data, options, x);
+
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  problem.AddResidualBlock(cost, nullptr, x);
+  constrain(problem, x, data, options);
 
   ceres::Solver::Options so;
   // Up to seven parameters: the normal equations are tiny, and Cholesky on them
