@@ -69,6 +69,10 @@ Command simulate_command() {
               const Truth truth = compute_truth(scene, layout, camera);
               const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
+              // As `generate --out` and `measure --out-dir` do, the folders
+              // the capture and its truth go into are made when missing.
+              for (const std::filesystem::path& p : {out, truth_path})
+                if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
               write_image(out, r.image, r.bits);
               nlohmann::json tj = truth_to_json(truth, scene, out.filename().string());
               tj["layout"] = layout_source;
