@@ -190,17 +190,19 @@ std::vector<cv::Rect> boxes_in_band(const InkSource& source, const cv::Rect& reg
 // dimmer numbers beside the fine elements.
 std::vector<cv::Rect> find_label_boxes(const cv::Mat& luminance, const LabelBoxSearch& search) {
   search.validate();
-  const cv::Mat grey = labels_detail::to_float_grey(luminance);
-  const cv::Rect image(0, 0, grey.cols, grey.rows);
+  const cv::Rect image(0, 0, luminance.cols, luminance.rows);
   const cv::Rect region = search.search_px.empty() ? image : search.search_px & image;
   if (region.width < 3 || region.height < 3) return {};
-  const InkSource source = ink_source(grey(region), search.ink);
+  // Only the region is converted (a chart's numbers lie within the
+  // elements' reach, often a fraction of the frame).
+  const cv::Mat grey = labels_detail::to_float_grey(luminance(region));
+  const InkSource source = ink_source(grey, search.ink);
   std::vector<cv::Rect> boxes;
   for (double lo = search.min_char_height_px; lo <= search.max_char_height_px; lo *= 2) {
     LabelBoxSearch band = search;
     band.min_char_height_px = lo;
     band.max_char_height_px = std::min(search.max_char_height_px, 2.5 * lo);
-    for (const cv::Rect& b : boxes_in_band(source, region, grey.size(), band)) {
+    for (const cv::Rect& b : boxes_in_band(source, region, luminance.size(), band)) {
       // The same number found in two bands: keep the first.
       const bool seen = std::any_of(boxes.begin(), boxes.end(), [&](const cv::Rect& k) {
         return (k & b).area() > 0.5 * std::min(k.area(), b.area());
