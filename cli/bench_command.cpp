@@ -19,9 +19,9 @@ Command bench_command() {
               std::vector<std::string> scenes, settings;
             };
             auto a = std::make_shared<Args>();
-            app.add_flag("--quick", a->quick, "A small subset of the suite (a few minutes at most)");
+            app.add_flag("--quick", a->quick, "A small subset of the suite: 12 scenes and the live figures, about 40 s on 2 cores");
             app.add_option("--out", a->out,
-                           "Folder for the captures, truth files, bench.csv, bench_summary.csv, bench.html and live.csv");
+                           "Folder for the captures, truth files, bench.csv, bench_summary.csv, bench.html and live.csv (required; made if missing)");
             app.add_option("--camera", a->camera,
                            "mrcal .cameramodel to render and measure with (default: the built-in example "
                            "wide-angle camera, examples/cameras/wide_angle.cameramodel)");

@@ -64,12 +64,6 @@ void parse_field(const std::string& text, LayoutOptions& o) {
   o.field_height_mm = x == std::string::npos ? o.field_width_mm : number(text.substr(x + 1));
 }
 
-// One output: rendered into a hidden temporary beside its final name.
-struct Staged {
-  std::string name;
-  std::unique_ptr<AtomicOutput> out;
-};
-
 int run_generate(GenerateArgs a) {
   // Validate everything before touching the file system.
   if (!a.field_mm.empty()) parse_field(a.field_mm, a.layout);
@@ -110,36 +104,19 @@ int run_generate(GenerateArgs a) {
     throw std::runtime_error(
         fmt::format("cannot create the output folder {}: {}", dir.string(), ec.message()));
 
-  std::vector<Staged> staged;
-  auto stage = [&](const char* name, auto&& write) {
-    staged.push_back({name, std::make_unique<AtomicOutput>(dir / name)});
-    try {
-      write(staged.back().out->temp_path());
-    } catch (const std::exception& e) {
-      throw std::runtime_error(fmt::format("cannot write {}: {}", (dir / name).string(), e.what()));
-    }
-  };
+  // All six or none (util/atomic_file.h).
+  AtomicOutputSet outputs;
   const double ppm = a.px_per_mm;
-  stage("layout.json", [&](const fs::path& p) { write_layout_file(p, layout); });
-  stage("target.svg", [&](const fs::path& p) { write_target_svg(p, layout); });
-  stage("target.png", [&](const fs::path& p) { write_target_png8(p, coverage, layout.polarity, ppm); });
-  stage("target.tif", [&](const fs::path& p) { write_target_tiff16(p, coverage, layout.polarity, ppm); });
-  stage("height.tif", [&](const fs::path& p) { write_height_map_tiff(p, layout, coverage, ppm); });
-  stage("relief.stl", [&](const fs::path& p) { write_binary_stl(p, mesh); });
-
-  // Renames within one folder; should one still fail, take back the ones
-  // already made so the set stays all-or-nothing.
-  for (size_t k = 0; k < staged.size(); ++k) {
-    try {
-      staged[k].out->commit();
-    } catch (...) {
-      for (size_t j = 0; j < k; ++j) fs::remove(staged[j].out->final_path(), ec);
-      throw;
-    }
-  }
+  outputs.stage(dir / "layout.json", [&](const fs::path& p) { write_layout_file(p, layout); });
+  outputs.stage(dir / "target.svg", [&](const fs::path& p) { write_target_svg(p, layout); });
+  outputs.stage(dir / "target.png", [&](const fs::path& p) { write_target_png8(p, coverage, layout.polarity, ppm); });
+  outputs.stage(dir / "target.tif", [&](const fs::path& p) { write_target_tiff16(p, coverage, layout.polarity, ppm); });
+  outputs.stage(dir / "height.tif", [&](const fs::path& p) { write_height_map_tiff(p, layout, coverage, ppm); });
+  outputs.stage(dir / "relief.stl", [&](const fs::path& p) { write_binary_stl(p, mesh); });
+  outputs.commit();
 
   const int w = coverage.width, h = coverage.height;
-  fmt::print("tactres generate: wrote {} files to {}\n", staged.size(), dir.string());
+  fmt::print("tactres generate: wrote {} files to {}\n", outputs.size(), dir.string());
   fmt::print("  layout.json, target.svg, target.png (8-bit), target.tif (16-bit), "
              "height.tif (float, mm), relief.stl\n");
   fmt::print("  {}, field {:g} x {:g} mm, groups {}..{} ({:.3g} to {:.3g} lp/mm), {} elements x 2 "

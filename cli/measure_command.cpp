@@ -4,8 +4,10 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <mutex>
 
 #include <fmt/format.h>
@@ -176,6 +178,7 @@ struct OutputPaths {
 // named after the capture; otherwise where -o/--csv/--overlay say.
 OutputPaths output_paths(const Args& a, const std::string& image_path, bool batch) {
   if (!batch && a.out_dir.empty()) return {a.output, a.csv, a.overlay};
+  if (a.out_dir.empty()) return {};  // a batch gated by --junit alone
   const fs::path dir = a.out_dir;
   const std::string stem = fs::path(image_path).stem().string();
   return {dir / (stem + ".json"), dir / (stem + ".csv"), dir / (stem + ".overlay.png")};
@@ -225,29 +228,34 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   } catch (const UnusableInput& e) {
     m.usable = false;
     m.problem = e.what();
-  } catch (const std::invalid_argument& e) {  // e.g. camera model for another imager
+  } catch (const std::exception& e) {  // a missing file, a camera model for another imager
     o.exit_code = kExitUsageOrIo;
     o.problem = e.what();
     o.summary = fmt::format("{}: error: {}", o.design, e.what());
-    return o;
-  } catch (const std::runtime_error& e) {  // missing or unreadable file
-    o.exit_code = kExitUsageOrIo;
-    o.problem = e.what();
-    o.summary = fmt::format("{}: error: {}", o.design, e.what());
+    // In a batch's folder the failure gets its JSON too, so that a report
+    // of the folder shows it as failed instead of leaving it out.
+    if (!a.out_dir.empty() && !json_path.empty()) {
+      m.usable = false;
+      m.problem = e.what();
+      write_file_atomically(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
+    }
     return o;
   }
 
-  // Outputs, each atomic. An unusable capture still gets its JSON, which
-  // says why, so that reports show it as failed instead of dropping it.
+  // Outputs, all or none (util/atomic_file.h); their folders are made. An
+  // unusable capture still gets its JSON, which says why, so that reports
+  // show it as failed instead of dropping it.
+  AtomicOutputSet outputs;
   if (!json_path.empty()) {
     ctx.chart = chart ? &*chart : nullptr;
-    write_file_atomically(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
+    outputs.stage_bytes(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
   }
   if (m.usable || (chart && !m.elements.empty())) {
-    if (!csv_path.empty())
-      write_file_atomically(csv_path, measurement_csv_header() + measurement_csv_rows(m, ctx));
-    if (!overlay_path.empty()) write_image(overlay_path, overlay_image(img.luminance, m));
+    if (!csv_path.empty()) outputs.stage_bytes(csv_path, measurement_csv_header() + measurement_csv_rows(m, ctx));
+    if (!overlay_path.empty())
+      outputs.stage(overlay_path, [&](const fs::path& p) { write_image(p, overlay_image(img.luminance, m)); });
   }
+  outputs.commit();
   o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   if (!m.usable) {
@@ -342,12 +350,29 @@ void add_measure_options(CLI::App& app, Args& a) {
   app.add_option("--preset", a.preset, "Accuracy/time trade: fast, balanced or precise")
       ->capture_default_str()
       ->check(CLI::IsMember({"fast", "balanced", "precise"}));
+  // A spec must be a real frequency: NaN compares false with every limit
+  // and would pass any capture.
+  const auto spec_lp_per_mm = [](const std::string& text) {
+    size_t used = 0;
+    double v = std::numeric_limits<double>::quiet_NaN();
+    try {
+      v = std::stod(text, &used);
+    } catch (const std::exception&) {
+    }
+    return used == text.size() && std::isfinite(v) && v > 0 && v <= 1e4
+               ? std::string()
+               : "must be a frequency in lp/mm, > 0 and <= 10000 (got " + text + ")";
+  };
   app.add_option("--require-h", a.require_h,
-                 "Exit 1 if the reported horizontal-bar limit (interpolated, lp/mm; the coarser of optics and detectability) is below this");
+                 "Exit 1 if the reported horizontal-bar limit (interpolated, lp/mm; the coarser of optics and "
+                 "detectability) is below this; lp/mm in (0, 10000]")
+      ->check(spec_lp_per_mm);
   app.add_option("--require-v", a.require_v,
-                 "Exit 1 if the reported vertical-bar limit (interpolated, lp/mm; the coarser of optics and detectability) is below this");
-  app.add_option("--junit", a.junit, "Write JUnit XML: one test case per image");
-  app.add_option("--channel", a.channel, "Channel to measure (default -1: Rec. 709 luminance)")
+                 "Exit 1 if the reported vertical-bar limit (interpolated, lp/mm; the coarser of optics and "
+                 "detectability) is below this; lp/mm in (0, 10000]")
+      ->check(spec_lp_per_mm);
+  app.add_option("--junit", a.junit, "Write JUnit XML: one test case per image (enough output by itself)");
+  app.add_option("--channel", a.channel, "Channel to measure, -1..63 (default -1: Rec. 709 luminance)")
       ->capture_default_str();
   app.add_option("--transfer", a.transfer, "How the file's code values map to light: auto (the file's colour tag; without one, 8-bit = "
                  "sRGB, 16-bit and float = linear), linear, srgb, or gamma:G (light = code^G, G in [0.2, 5])")
@@ -371,18 +396,20 @@ void add_measure_options(CLI::App& app, Args& a) {
                  "Below this many pixels per bar an element is below_sampling_limit (default 1.25: 0.8 of Nyquist); "
                  "with --chart, unless its profile plainly shows all three bars")
       ->check(CLI::Range(0.5, 20.0));
-  app.add_option("-j,--jobs", a.jobs, "Batch: images measured in parallel (default: all cores)")
+  app.add_option("-j,--jobs", a.jobs, "Batch: images measured in parallel, 0..256 (default 0: all cores)")
       ->check(CLI::Range(0, 256));
 }
 
 // The analysis options the arguments ask for, validated; throws
 // std::invalid_argument (exit 3) for a combination that cannot work.
 MeasureOptions measure_options(const Args& a, bool batch) {
-  if (!batch && a.output.empty() && a.csv.empty() && a.overlay.empty())
-    throw std::invalid_argument("say where results go: -o result.json (and/or --csv, --overlay), or --out-dir DIR");
+  if (!batch && a.output.empty() && a.csv.empty() && a.overlay.empty() && a.out_dir.empty() && a.junit.empty())
+    throw std::invalid_argument(
+        "say where results go: -o result.json (and/or --csv, --overlay, --junit), or --out-dir DIR");
   if (batch && (!a.output.empty() || !a.csv.empty() || !a.overlay.empty()))
     throw std::invalid_argument("several images need --out-dir DIR instead of -o/--csv/--overlay");
-  if (batch && a.out_dir.empty()) throw std::invalid_argument("several images need --out-dir DIR");
+  if (batch && a.out_dir.empty() && a.junit.empty())
+    throw std::invalid_argument("several images need --out-dir DIR (or --junit FILE alone, for a CI gate)");
   MeasureOptions options = MeasureOptions::for_preset(preset_from_string(a.preset));
   options.criterion.threshold = a.threshold;
   options.detectability.k = a.detectability_k;
@@ -435,12 +462,19 @@ int run_measure(const Args& a) {
   });
 
   int worst = kExitOk;
+  int by_code[4] = {0, 0, 0, 0};
   for (const Outcome& o : outcomes) {
     const bool measured = o.exit_code == kExitOk || o.exit_code == kExitBelowSpec;
     fmt::print(measured ? stdout : stderr, "{}\n", o.summary);
     worst = std::max(worst, o.exit_code);
+    ++by_code[std::clamp(o.exit_code, 0, 3)];
   }
   if (!a.junit.empty()) write_file_atomically(a.junit, junit_xml(outcomes));
+  // A batch's exit code is its worst capture's (README, "Exit codes").
+  if (outcomes.size() > 1)
+    fmt::print("{} capture(s): {} measured ({} below spec), {} unusable, {} error(s); exit {}\n", outcomes.size(),
+               by_code[kExitOk] + by_code[kExitBelowSpec], by_code[kExitBelowSpec], by_code[kExitUnusableInput],
+               by_code[kExitUsageOrIo], worst);
   return worst;
 }
 

@@ -68,8 +68,8 @@ Command report_command() {
             app.add_option("--chart-js", a->chart_js, "Chart.js (UMD build) to inline into the HTML")
                 ->capture_default_str();
             app.add_option("--thumbnail-px", a->thumbnail_px,
-                           "Long side of the overlay thumbnails in the HTML, in pixels (larger overlays are "
-                           "downscaled)")
+                           "Long side of the overlay thumbnails in the HTML, in pixels, 32..4096 (larger overlays "
+                           "are downscaled)")
                 ->capture_default_str();
             app.footer(
                 "Each measurement's overlay is read from <stem>.overlay.png beside <stem>.json (measure --out-dir "

@@ -1,4 +1,5 @@
 // `tactres simulate`: render a scene into a capture plus its truth file.
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 
@@ -40,7 +41,7 @@ Command simulate_command() {
             app.add_option("--layout", a->layout,
                            "Layout JSON (overrides the scene's \"layout\"; with neither, the default target of "
                            "`tactres generate`)");
-            app.add_option("--seed", a->seed, "Sensor noise seed (overrides the scene's; same seed, same bytes)");
+            app.add_option("--seed", a->seed, "Sensor noise seed (default: the sensor effect's \"seed\", 1 unless the scene says; same seed, same bytes)");
             app.add_option("--supersampling", a->supersampling,
                            "Sub-pixels per pixel side, 1..16 (overrides the scene's; default 2)")
                 ->check(CLI::Range(1, 16));
@@ -56,11 +57,28 @@ Command simulate_command() {
               const std::string layout_source =
                   scene.layout_path ? scene.layout_path->string()
                                     : std::string(kDefaultTargetName);
-              const CameraModel camera = CameraModel::load(scene.camera_path);
+              const CameraModel camera = [&] {
+                try {
+                  return CameraModel::load(scene.camera_path);
+                } catch (const std::runtime_error& e) {
+                  throw std::runtime_error(fmt::format(
+                      "{} (the scene's \"camera\"; a scene's paths are relative to the scene file's folder)",
+                      e.what()));
+                }
+              }();
               const std::filesystem::path out(a->output);
               const std::filesystem::path truth_path =
                   a->truth.empty() ? std::filesystem::path(out.string() + ".truth.json") : std::filesystem::path(a->truth);
-              if (!scene.find<SensorOptions>() && out.extension() == ".png")
+              std::string ext = out.extension().string();
+              std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+              // The truth describes the pixels exactly as rendered: a lossy
+              // or 8-bit-only format (JPEG, BMP) would change them unsaid.
+              if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".exr")
+                throw std::invalid_argument(fmt::format(
+                    "cannot write a capture as '{}': use .png (needs a sensor effect), .tif/.tiff or .exr; a lossy "
+                    "or 8-bit-only format would change the pixels the truth file describes",
+                    ext.empty() ? out.filename().string() : ext));
+              if (!scene.find<SensorOptions>() && ext == ".png")
                 throw std::invalid_argument(
                     "an ideal (float) render needs .tif or .exr; add a sensor effect to write .png");
 
@@ -69,14 +87,14 @@ Command simulate_command() {
               const Truth truth = compute_truth(scene, layout, camera);
               const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
-              // As `generate --out` and `measure --out-dir` do, the folders
-              // the capture and its truth go into are made when missing.
-              for (const std::filesystem::path& p : {out, truth_path})
-                if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
-              write_image(out, r.image, r.bits);
+              // The capture and its truth, both or neither; their folders
+              // are made when missing (util/atomic_file.h).
               nlohmann::json tj = truth_to_json(truth, scene, out.filename().string());
               tj["layout"] = layout_source;
-              write_file_atomically(truth_path, tj.dump(2) + "\n");
+              AtomicOutputSet outputs;
+              outputs.stage(out, [&](const std::filesystem::path& p) { write_image(p, r.image, r.bits); });
+              outputs.stage_bytes(truth_path, tj.dump(2) + "\n");
+              outputs.commit();
 
               // The reported (coarser) true limit, and when the light limits it.
               auto limit_text = [](const LimitBreakdown& parts) {

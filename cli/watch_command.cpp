@@ -68,7 +68,7 @@ void add_watch_options(CLI::App& app, Args& a) {
       ->capture_default_str()
       ->check(CLI::IsMember({"all", "near-limit"}));
   app.add_option("--focus-element", a.focus_element,
-                 "Watch m(f) at group G element E (two numbers; default: per orientation, the element at the limit on the first frame measured, kept for the whole run)")
+                 "Watch m(f) at group G element E (two numbers: a group of the target, E in 1..6; default: per orientation, the element at the limit on the first frame measured, kept for the whole run)")
       ->expected(2);
   app.add_option("--refit-every", a.refit_every,
                  "Fit the reference patch (chart: detect the chart) again every N frames, [1, 100000]")
@@ -84,9 +84,9 @@ void add_watch_options(CLI::App& app, Args& a) {
       ->capture_default_str()
       ->check(CLI::Range(1.0, 100.0));
   app.add_option("--transfer", a.transfer,
-                 "Code values to light: auto (tags; untagged 8-bit = sRGB, 16-bit = linear), linear, srgb, gamma:G")
+                 "Code values to light: auto (tags; untagged 8-bit = sRGB, 16-bit and float = linear), linear, srgb, gamma:G (light = code^G, G in [0.2, 5])")
       ->capture_default_str();
-  app.add_option("--channel", a.channel, "Channel to measure (default -1: Rec. 709 luminance)")->capture_default_str();
+  app.add_option("--channel", a.channel, "Channel to measure, -1..63 (default -1: Rec. 709 luminance)")->capture_default_str();
   app.add_option("--csv", a.csv, "One row per frame, written and flushed as it goes (docs/LIVE.md)");
   app.add_flag("--window", a.window, "Show the overlay, the numbers and a focus bar in a window (needs a display)");
   app.add_option("--max-frames", a.max_frames, "Stop after this many frames (0: at the end of the source or Ctrl-C)")

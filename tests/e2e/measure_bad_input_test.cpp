@@ -67,6 +67,44 @@ TEST_CASE("measure: a good capture is within spec (exit 0) and below a --require
   CHECK(fs::exists(f.dir.path / "out.png"));
   r = run_measure(f.dir.path, f.common(f.good) + " --require-h 40");
   CHECK(r.exit_code == 1);
+  // JUnit is an output of its own: a CI gate needs nothing else.
+  fs::remove(f.dir.path / "junit.xml");
+  r = run_measure(f.dir.path, f.good.string() + " --layout " + f.layout.string() + " --require-h 40 --junit " +
+                                  (f.dir.path / "junit.xml").string());
+  CHECK(r.exit_code == 1);
+  CHECK(fs::exists(f.dir.path / "junit.xml"));
+}
+
+TEST_CASE("measure: a spec that is not a frequency is refused (NaN would pass every capture)") {
+  Fixture f;
+  for (const std::string spec : {"nan", "-1", "0", "inf", "5x"}) {
+    CAPTURE(spec);
+    const Run r = run_measure(f.dir.path, f.common(f.good) + " --require-h " + spec);
+    CHECK(r.exit_code == 3);
+    CHECK(r.err.find("--require-h") != std::string::npos);
+  }
+  check_only(f.dir.path, {"layout.json", "good.tif", "stderr.txt"});
+}
+
+TEST_CASE("measure: a capture's outputs are written all or none, into folders made for them") {
+  Fixture f;
+  // The CSV cannot be written (its folder is a file): no JSON or overlay either.
+  std::ofstream(f.dir.path / "a_file") << "x";
+  const fs::path sub = f.dir.path / "new" / "folder";
+  Run r = run_measure(f.dir.path, f.good.string() + " --layout " + f.layout.string() + " -o " +
+                                      (sub / "m.json").string() + " --csv " + (f.dir.path / "a_file" / "m.csv").string() +
+                                      " --overlay " + (sub / "m.png").string());
+  CHECK(r.exit_code == 3);
+  CHECK(r.err.find("m.csv") != std::string::npos);
+  CHECK_FALSE(fs::exists(sub / "m.json"));
+  CHECK_FALSE(fs::exists(sub / "m.png"));
+  // With writable paths, the missing folders are made.
+  r = run_measure(f.dir.path, f.good.string() + " --layout " + f.layout.string() + " -o " + (sub / "m.json").string() +
+                                  " --overlay " + (sub / "m.png").string());
+  CHECK(r.exit_code == 0);
+  CHECK(fs::exists(sub / "m.json"));
+  CHECK(fs::exists(sub / "m.png"));
+  check_only(sub, {"m.json", "m.png"});
 }
 
 TEST_CASE("measure: truncated and unreadable images") {
@@ -149,4 +187,16 @@ TEST_CASE("measure batch: one bad file never stops the others, the exit code is 
   const std::string junit = read_file(f.dir.path / "junit.xml");
   CHECK(junit.find("tests=\"2\"") != std::string::npos);
   CHECK(junit.find("errors=\"1\"") != std::string::npos);
+  // A missing file (exit 3) gets its JSON too, saying why, and the batch's
+  // last line counts every outcome.
+  const std::string cmd = std::string(TACTRES_BINARY) + " measure " + f.good.string() + " " + bad.string() + " " +
+                          (f.dir.path / "missing.png").string() + " --layout " + f.layout.string() + " --out-dir " +
+                          out.string() + " > " + (f.dir.path / "stdout.txt").string() + " 2> /dev/null";
+  const int status = std::system(cmd.c_str());
+  CHECK((WIFEXITED(status) ? WEXITSTATUS(status) : -1) == 3);
+  const nlohmann::json missing = nlohmann::json::parse(read_file(out / "missing.json"));
+  CHECK(missing["usable"] == false);
+  CHECK(missing["problem"].get<std::string>().find("missing.png") != std::string::npos);
+  CHECK(read_file(f.dir.path / "stdout.txt").find("3 capture(s): 1 measured (0 below spec), 1 unusable, 1 error(s); exit 3") !=
+        std::string::npos);
 }

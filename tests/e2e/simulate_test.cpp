@@ -22,6 +22,7 @@
 
 using namespace tactres;
 using namespace tactres::testing;
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -221,4 +222,26 @@ TEST_CASE("simulate: a scene without a layout renders the default target of `tac
   CHECK(read_file(dir.path / "default.png.txt").find("layout: the default target") != std::string::npos);
   const auto truth = nlohmann::json::parse(read_file(dir.path / "default.png.truth.json"));
   CHECK(truth["layout"].get<std::string>().find("default target") != std::string::npos);
+}
+
+TEST_CASE("simulate: a lossy or 8-bit-only capture format is refused, and missing folders are made") {
+  TempDir dir("formats");
+  auto run = [&](const fs::path& out) {
+    const std::string cmd = std::string(TACTRES_BINARY) + " simulate " +
+                            (source_dir() / "examples/scenes/cmos.json").string() + " -o " + out.string() +
+                            " --supersampling 1 > /dev/null 2> " + (dir.path / "err.txt").string();
+    const int status = std::system(cmd.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  for (const char* name : {"a.jpg", "a.bmp", "a"}) {
+    CAPTURE(name);
+    CHECK(run(dir.path / name) == 3);
+    CHECK(read_file(dir.path / "err.txt").find(".tif/.tiff or .exr") != std::string::npos);
+  }
+  // Nothing was written for the refused ones.
+  for (const auto& e : fs::directory_iterator(dir.path)) CHECK(e.path().filename() == "err.txt");
+  // The capture and its truth go into folders made for them.
+  REQUIRE(run(dir.path / "new" / "folder" / "c.png") == 0);
+  CHECK(fs::exists(dir.path / "new" / "folder" / "c.png"));
+  CHECK(fs::exists(dir.path / "new" / "folder" / "c.png.truth.json"));
 }

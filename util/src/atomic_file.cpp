@@ -18,6 +18,17 @@ std::string random_tag() {
   return tag;
 }
 
+// Writes `bytes` to `temp_path`, the temporary of `final_path` (named in
+// the message).
+void write_bytes(const std::filesystem::path& temp_path, const std::filesystem::path& final_path,
+                 std::string_view bytes) {
+  std::ofstream f(temp_path, std::ios::binary | std::ios::trunc);
+  if (!f) throw std::runtime_error("cannot write " + final_path.string() + ": the folder is missing or not writable");
+  f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  f.flush();
+  if (!f) throw std::runtime_error("cannot write " + final_path.string() + ": write failed (disk full?)");
+}
+
 }  // namespace
 
 AtomicOutput::AtomicOutput(std::filesystem::path final_path) : final_path_(std::move(final_path)) {
@@ -48,16 +59,41 @@ void AtomicOutput::commit() {
 
 void write_file_atomically(const std::filesystem::path& path, std::string_view bytes) {
   AtomicOutput out(path);
-  {
-    std::ofstream f(out.temp_path(), std::ios::binary | std::ios::trunc);
-    if (!f)
-      throw std::runtime_error("cannot write " + path.string() +
-                               ": the folder is missing or not writable");
-    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    f.flush();
-    if (!f) throw std::runtime_error("cannot write " + path.string() + ": write failed (disk full?)");
-  }
+  write_bytes(out.temp_path(), path, bytes);
   out.commit();
+}
+
+void AtomicOutputSet::stage(const std::filesystem::path& final_path,
+                            const std::function<void(const std::filesystem::path&)>& write) {
+  std::error_code ec;
+  if (final_path.has_parent_path()) std::filesystem::create_directories(final_path.parent_path(), ec);
+  outputs_.push_back(std::make_unique<AtomicOutput>(final_path));
+  try {
+    write(outputs_.back()->temp_path());
+  } catch (const std::exception& e) {
+    const std::string why = e.what();
+    // A message that names the output already (write_bytes) is not
+    // prefixed twice.
+    throw std::runtime_error(why.find(final_path.string()) != std::string::npos
+                                 ? why
+                                 : "cannot write " + final_path.string() + ": " + why);
+  }
+}
+
+void AtomicOutputSet::stage_bytes(const std::filesystem::path& final_path, std::string_view bytes) {
+  stage(final_path, [&](const std::filesystem::path& temp) { write_bytes(temp, final_path, bytes); });
+}
+
+void AtomicOutputSet::commit() {
+  for (size_t k = 0; k < outputs_.size(); ++k) {
+    try {
+      outputs_[k]->commit();
+    } catch (...) {
+      std::error_code ec;
+      for (size_t j = 0; j < k; ++j) std::filesystem::remove(outputs_[j]->final_path(), ec);
+      throw;
+    }
+  }
 }
 
 std::string read_file(const std::filesystem::path& path) {

@@ -125,6 +125,15 @@ void fill_luminance(const float* pixels, bool bgr, const LoadOptions& options, c
         out.non_finite_pixels));
 }
 
+// The image library's message on one line (it joins its decoder's lines
+// with newlines, which would break the JSON's one-line problem, the
+// report's table and a CSV cell).
+std::string one_line(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  for (size_t k = text.find('\n'); k != std::string::npos; k = text.find('\n', k)) text.replace(k, 1, "; ");
+  return text;
+}
+
 }  // namespace
 
 LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& options) {
@@ -134,8 +143,9 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
     throw std::runtime_error(fmt::format("cannot read image {}: no such file", path.string()));
   auto in = OIIO::ImageInput::open(path.string());
   if (!in)
-    throw UnusableInput(fmt::format("cannot decode image {}: {} (is it a complete image file?)",
-                                    path.string(), OIIO::geterror()));
+    throw UnusableInput(fmt::format("cannot decode image {}: {} (is it a complete image file of a format "
+                                    "OpenImageIO reads? re-export or copy it again)",
+                                    path.string(), one_line(OIIO::geterror())));
   const OIIO::ImageSpec spec = in->spec();
   LoadedImage out;
   out.width = spec.width;
@@ -152,8 +162,9 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
 
   std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data()))
-    throw UnusableInput(fmt::format("cannot decode image {}: {} (truncated or corrupt file?)",
-                                    path.string(), in->geterror()));
+    throw UnusableInput(fmt::format("cannot decode image {}: {} (the file is truncated or corrupt: copy or "
+                                    "export it again)",
+                                    path.string(), one_line(in->geterror())));
 
   // Signed integers (a laser-scanning microscope's int16) come as [-1, 1]:
   // offset to [0, 1], so that the format's minimum is black and clips, as an

@@ -67,6 +67,12 @@ Pattern make_pattern(const TargetLayout& layout) {
   const std::string hint =
       "the layout's fiducials must be the 5 equal discs TL, T3, TR, BL, BR written by `tactres "
       "generate`";
+  // A standard chart's layout (--style mil-std-150a) has none: it is
+  // measured in chart mode, which finds the chart itself.
+  if (f.empty())
+    throw std::invalid_argument(
+        "the layout has no fiducials (a standard MIL-STD-150A chart?): measure a standard chart with --chart "
+        "usaf1951 instead of --layout; layout mode needs the 5 discs of a target from `tactres generate`");
   if (f.size() != 5)
     throw std::invalid_argument(
         fmt::format("layout has {} fiducials, expected 5: {}", f.size(), hint));

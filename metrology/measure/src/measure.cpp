@@ -314,10 +314,14 @@ Located locate_target(const LoadedImage& image, const TargetLayout& layout, cons
     return L;
   }
   if (M.pose.rms_px > 2.0) {
+    // Without a camera model a pinhole is fitted, and a lens's distortion
+    // shows as this misfit: the likeliest fix comes first.
     M.problem = fmt::format(
-        "the fiducials fit the layout poorly (reprojection RMS {:.2f} px): wrong layout, wrong camera "
-        "model, or a strongly deformed target",
-        M.pose.rms_px);
+        "the fiducials fit the layout poorly (reprojection RMS {:.2f} px): {}",
+        M.pose.rms_px,
+        camera ? "wrong layout, wrong camera model, or a strongly deformed target"
+               : "no --camera was given, and a pinhole does not fit this lens; pass the lens's mrcal model with "
+                 "--camera (else: wrong layout, or a strongly deformed target)");
     return L;
   }
   if (track && M.pose.rms_px > std::max(3 * track->pose_rms_px, 0.3)) {

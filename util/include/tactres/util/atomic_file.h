@@ -3,7 +3,10 @@
 // failure never leaves a half-written file behind.
 
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <string_view>
+#include <vector>
 
 namespace tactres {
 
@@ -27,6 +30,29 @@ class AtomicOutput {
   std::filesystem::path final_path_;
   std::filesystem::path temp_path_;
   bool committed_ = false;
+};
+
+// Several outputs written all-or-nothing (a capture's JSON, CSV and
+// overlay; a target's six files): each is staged to its temporary sibling,
+// and commit() renames them all into place. Should one stage or rename
+// fail, nothing of the set is left: the staged files are removed, and the
+// ones already renamed too. Destroyed uncommitted, it leaves nothing.
+class AtomicOutputSet {
+ public:
+  // Stages one output: `write` writes it to the temporary path it is given.
+  // The output's folder is made when missing. Throws std::runtime_error
+  // "cannot write <final path>: <why>" when `write` throws.
+  void stage(const std::filesystem::path& final_path,
+             const std::function<void(const std::filesystem::path& temp_path)>& write);
+  // Stages `bytes` as the file `final_path`.
+  void stage_bytes(const std::filesystem::path& final_path, std::string_view bytes);
+  // Renames every staged output into place. Throws std::runtime_error
+  // naming the path on failure, having removed the ones already renamed.
+  void commit();
+  size_t size() const { return outputs_.size(); }
+
+ private:
+  std::vector<std::unique_ptr<AtomicOutput>> outputs_;
 };
 
 // Writes `bytes` to `path` atomically. Throws std::runtime_error with the path.

@@ -1,0 +1,75 @@
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <unistd.h>
+
+#include <doctest/doctest.h>
+
+#include "tactres/util/atomic_file.h"
+
+using namespace tactres;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A fresh folder of its own, removed at the end.
+struct Folder {
+  fs::path path = fs::temp_directory_path() / ("tactres_atomic_" + std::to_string(::getpid()));
+  Folder() {
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~Folder() { fs::remove_all(path); }
+  size_t entries() const {
+    size_t n = 0;
+    for (const auto& e : fs::recursive_directory_iterator(path)) n += e.is_regular_file();
+    return n;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("AtomicOutputSet: all outputs appear at commit, in folders made for them") {
+  Folder f;
+  AtomicOutputSet set;
+  set.stage_bytes(f.path / "a.json", "{}\n");
+  set.stage(f.path / "sub" / "b.txt", [](const fs::path& temp) { std::ofstream(temp) << "b"; });
+  CHECK_FALSE(fs::exists(f.path / "a.json"));  // staged, not yet in place
+  set.commit();
+  CHECK(read_file(f.path / "a.json") == "{}\n");
+  CHECK(read_file(f.path / "sub" / "b.txt") == "b");
+  CHECK(f.entries() == 2);  // no temporaries left
+}
+
+TEST_CASE("AtomicOutputSet: a failing writer leaves nothing of the set, and names the output") {
+  Folder f;
+  {
+    AtomicOutputSet set;
+    set.stage_bytes(f.path / "a.json", "{}\n");
+    std::string message;
+    try {
+      set.stage(f.path / "b.png", [](const fs::path& temp) {
+        std::ofstream(temp) << "half";
+        throw std::runtime_error("encoder failed");
+      });
+    } catch (const std::runtime_error& e) {
+      message = e.what();
+    }
+    CHECK(message == "cannot write " + (f.path / "b.png").string() + ": encoder failed");
+  }
+  CHECK(f.entries() == 0);
+}
+
+TEST_CASE("AtomicOutputSet: a rename that fails takes back the ones already made") {
+  Folder f;
+  fs::create_directories(f.path / "b.json" / "occupied");  // a folder, not empty: no file can replace it
+  AtomicOutputSet set;
+  set.stage_bytes(f.path / "a.json", "a");
+  set.stage_bytes(f.path / "b.json.tmp-target", "b");  // staged fine
+  set.stage_bytes(f.path / "b.json", "b");             // its rename will fail
+  CHECK_THROWS_AS(set.commit(), std::runtime_error);
+  CHECK_FALSE(fs::exists(f.path / "a.json"));
+  CHECK_FALSE(fs::exists(f.path / "b.json.tmp-target"));
+  CHECK(fs::is_directory(f.path / "b.json"));
+}
