@@ -67,7 +67,8 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
                            {"mismatch", m.transfer_check.mismatch},
                            {"switched", m.transfer_check.switch_to.has_value()}};
   j["warnings"] = m.warnings;
-  j["camera"] = {{"model", m.camera_source}, {"distortion_corrected", m.distortion_corrected}};
+  j["camera"] = {{"model", m.camera_source.empty() ? nlohmann::json(nullptr) : nlohmann::json(m.camera_source)},
+                 {"distortion_corrected", m.distortion_corrected}};
   if (m.pose.usable) {
     nlohmann::json rt = nlohmann::json::array();
     for (double v : m.pose.rt_camera_from_target_mm) rt.push_back(finite(v));
@@ -93,8 +94,10 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
   if (m.reference.usable && (m.reference.horizontal_field.plane || m.reference.vertical_field.plane))
     j["reference"]["gain_field"] = {{"horizontal_bars", gain_field_to_json(m.reference.horizontal_field)},
                                     {"vertical_bars", gain_field_to_json(m.reference.vertical_field)}};
-  j["nyquist_lp_per_mm"] = {{"horizontal_bars", finite(m.nyquist_h_lp_per_mm)},
-                            {"vertical_bars", finite(m.nyquist_v_lp_per_mm)}};
+  // Null where the capture was never measured (0 would read as a limit).
+  const auto positive = [](double v) { return v > 0 ? finite(v) : nlohmann::json(nullptr); };
+  j["nyquist_lp_per_mm"] = {{"horizontal_bars", positive(m.nyquist_h_lp_per_mm)},
+                            {"vertical_bars", positive(m.nyquist_v_lp_per_mm)}};
   const DetectabilityCriterion rose = ctx.options ? ctx.options->detectability : DetectabilityCriterion{};
   j["limits"] = {{"horizontal_bars", breakdown_to_json(m.horizontal_parts, rose)},
                  {"vertical_bars", breakdown_to_json(m.vertical_parts, rose)}};
