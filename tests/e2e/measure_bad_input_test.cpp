@@ -8,6 +8,7 @@
 #include <set>
 
 #include <doctest/doctest.h>
+#include <opencv2/imgcodecs.hpp>
 #include <nlohmann/json.hpp>
 
 #include "scene_fixtures.h"
@@ -152,6 +153,16 @@ TEST_CASE("measure: no target, saturated, all-NaN, wrong layout, wrong camera si
   r = run_measure(f.dir.path, f.common(f.dir.path / "nan.exr"));
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("no finite pixel") != std::string::npos);
+
+  // NaN over the left two thirds (masked): the fiducials there are gone,
+  // and the message says the pixels were masked.
+  cv::Mat masked = cv::imread(f.good.string(), cv::IMREAD_UNCHANGED);
+  REQUIRE(masked.type() == CV_32F);
+  masked.colRange(0, masked.cols * 2 / 3).setTo(std::numeric_limits<float>::quiet_NaN());
+  write_image(f.dir.path / "masked.tif", masked);
+  r = run_measure(f.dir.path, f.common(f.dir.path / "masked.tif"));
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("NaN/Inf and were masked") != std::string::npos);
 
   // The layout of another target: same fiducials, different elements.
   LayoutOptions other;

@@ -303,6 +303,10 @@ Located locate_target(const LoadedImage& image, const TargetLayout& layout, cons
   M.stage_seconds.push_back({"locate_fiducials", t.seconds()});
   if (!M.fiducials.found) {
     M.problem = M.fiducials.problem.empty() ? "no target found" : M.fiducials.problem;
+    // Masked pixels hide what lies under them: say how many.
+    if (image.non_finite_pixels > 0)
+      M.problem += fmt::format("; {} pixel(s) are NaN/Inf and were masked, and a fiducial under them cannot be found",
+                               image.non_finite_pixels);
     return L;
   }
   t.restart();
