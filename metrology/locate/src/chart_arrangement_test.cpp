@@ -370,3 +370,25 @@ TEST_CASE("nesting: nothing is placed without two elements that nest, or into a 
   predict_nested_pairs(rel.D, *centre, 1200, 1200);
   CHECK(rel.D.predicted_elements == 0);
 }
+
+TEST_CASE("partial elements: a lone pattern must run along the chart's axes (a blurred numeral is no element)") {
+  for (const double tilt_deg : {0.0, 4.0, 11.0, 20.0}) {
+    CAPTURE(tilt_deg);
+    Built b = build(range(0, 9), View{});
+    // Element 10's H triplet, alone, its bars turned by tilt_deg.
+    BarPattern p;
+    p.center_px = b.D.patterns[b.D.elements.back().h].center_px + Vec2{0, 60};
+    const double a = tilt_deg * M_PI / 180;
+    p.bar_dir = {std::cos(a), std::sin(a)};
+    p.period_px = 2 * 40 * std::exp2(-10 / 6.0);
+    b.D.patterns.push_back(p);
+    const cv::Mat img(1200, 1200, CV_32F, cv::Scalar(0));
+    const std::vector<ChartElement> partial =
+        partial_elements(b.D, {static_cast<int>(b.D.patterns.size()) - 1}, b.field, img);
+    REQUIRE(partial.size() == (tilt_deg < 8.5 ? 1u : 0u));
+    if (!partial.empty()) {
+      CHECK(partial[0].relative_index == 10);
+      CHECK(partial[0].h == static_cast<int>(b.D.patterns.size()) - 1);
+    }
+  }
+}

@@ -16,6 +16,9 @@ namespace tactres::locate_detail {
 
 namespace {
 
+// How far a lone pattern's bars may turn from the chart's axes (above).
+constexpr double kLoneAxisTolerance = 8.5 * M_PI / 180;
+
 // Where the missing pattern of partial element `e` stands:
 // D.separation_periods along `h_to_v` (the image direction from an H
 // triplet to its V partner) from the found one; returned. Whether it would
@@ -78,6 +81,12 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
     if (!near) continue;
     const Vec2 d = D.patterns[near->v].center_px - D.patterns[near->h].center_px;
     const Vec2 ex = (1.0 / norm(d)) * d;
+    // A chart's patterns run along its axes: a lone one turned from both
+    // (a blurred numeral's strokes: dev_04's "6" beside G5E6, 11 deg) is no
+    // element. Those found on the development set lie within 6.5 deg of
+    // the nearest element's axes, distortion included.
+    const double along_x = std::abs(dot(p.bar_dir, ex));
+    if (std::min(std::acos(std::min(along_x, 1.0)), std::asin(std::min(along_x, 1.0))) > kLoneAxisTolerance) continue;
     ChartElement e;
     (std::abs(dot(p.bar_dir, ex)) > std::cos(30 * M_PI / 180) ? e.h : e.v) = k;
     e.period_px = p.period_px;
