@@ -60,8 +60,8 @@ std::string limit_text(const Limit& l, bool relative = false) {
   std::string s = fmt::format("G{}E{} {:.2f} {}", l.group, l.element, l.lp_per_mm, unit);
   if (l.interpolated_lp_per_mm)
     s += fmt::format(" (interp. {:.2f} ± {:.2f})", *l.interpolated_lp_per_mm, l.uncertainty_lp_per_mm.value_or(0));
-  else if (l.beyond_finest)
-    s += " (all resolved)";
+  else if (l.beyond_finest)  // a lower bound: finer elements may be unmeasured (a chart's failed fits)
+    s += " (all measured resolved)";
   if (!l.bridged.empty()) {
     std::vector<std::string> names;
     for (const Limit::Bridged& b : l.bridged) names.push_back(fmt::format("G{}E{}", b.group, b.element));
@@ -112,7 +112,8 @@ std::optional<double> gate_value(const Limit& l) {
 
 // The one-line summary, the gate values and the exit code of a usable
 // measurement (`chart` is null in layout mode).
-void summarise(const Args& a, const Measurement& m, const ChartDetection* chart, Outcome& o) {
+void summarise(const Args& a, const Measurement& m, const ChartDetection* chart, const MeasureOptions& options,
+               Outcome& o) {
   if (chart && chart->anchor == ChartAnchor::none && (a.require_h || a.require_v)) {
     o.exit_code = kExitUnusableInput;
     o.problem =
@@ -126,7 +127,8 @@ void summarise(const Args& a, const Measurement& m, const ChartDetection* chart,
   int ok = 0, other = 0, poor = 0;
   for (const ElementResult& e : m.elements) {
     (e.status == ElementStatus::ok ? ok : other)++;
-    poor += e.status == ElementStatus::ok && !e.note.empty();
+    // Misfit only: other notes (a clipped bin, a flat gap) are in the JSON.
+    poor += e.status == ElementStatus::ok && e.chi2_reduced > options.poor_fit_chi2;
   }
   std::string spec;
   std::vector<std::string> below;
@@ -186,7 +188,8 @@ OutputPaths output_paths(const Args& a, const std::string& image_path, bool batc
 
 // `layout` is null in chart mode.
 Outcome measure_one(const Args& a, const std::string& image_path, const TargetLayout* layout,
-                    const CameraModel* camera, const MeasureOptions& options, bool batch) {
+                    const std::string& layout_sha1, const CameraModel* camera, const MeasureOptions& options,
+                    bool batch) {
   Outcome o;
   o.image = image_path;
   o.design = a.design.empty() || batch ? fs::path(image_path).stem().string() : a.design;
@@ -202,6 +205,7 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   ctx.image = image_path;
   ctx.design = o.design;
   ctx.layout = layout ? a.layout : "chart:" + a.chart;
+  ctx.layout_sha1 = layout_sha1;
   ctx.tactres_version = TACTRES_VERSION;
   ctx.options = &options;
 
@@ -246,10 +250,8 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   // unusable capture still gets its JSON, which says why, so that reports
   // show it as failed instead of dropping it.
   AtomicOutputSet outputs;
-  if (!json_path.empty()) {
-    ctx.chart = chart ? &*chart : nullptr;
-    outputs.stage_bytes(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
-  }
+  ctx.chart = chart ? &*chart : nullptr;
+  if (!json_path.empty()) outputs.stage_bytes(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
   if (m.usable || (chart && !m.elements.empty())) {
     if (!csv_path.empty()) outputs.stage_bytes(csv_path, measurement_csv_header() + measurement_csv_rows(m, ctx));
     if (!overlay_path.empty())
@@ -264,7 +266,7 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
     o.summary = fmt::format("{}: unusable: {}", o.design, m.problem);
     return o;
   }
-  summarise(a, m, chart ? &*chart : nullptr, o);
+  summarise(a, m, chart ? &*chart : nullptr, options, o);
   return o;
 }
 
@@ -429,7 +431,8 @@ int run_measure(const Args& a) {
   const bool batch = a.images.size() > 1 || !a.out_dir.empty();
   const MeasureOptions options = measure_options(a, batch);
   std::optional<TargetLayout> layout;
-  if (a.chart.empty()) layout = read_layout_file(a.layout);
+  std::string layout_sha1;
+  if (a.chart.empty()) layout = read_layout_file(a.layout), layout_sha1 = file_sha1(a.layout);
   std::optional<CameraModel> camera;
   if (!a.camera.empty()) camera = CameraModel::load(a.camera);
   if (!a.out_dir.empty()) {
@@ -444,7 +447,8 @@ int run_measure(const Args& a) {
   const bool tty = isatty(fileno(stderr)) && batch;
   for_each_index(a.images.size(), a.jobs, [&](size_t i) {
       try {
-        outcomes[i] = measure_one(a, a.images[i], layout ? &*layout : nullptr, camera ? &*camera : nullptr, options, batch);
+        outcomes[i] = measure_one(a, a.images[i], layout ? &*layout : nullptr, layout_sha1, camera ? &*camera : nullptr,
+                                  options, batch);
       } catch (const std::exception& e) {  // an output could not be written
         outcomes[i].image = a.images[i];
         outcomes[i].design = fs::path(a.images[i]).stem().string();

@@ -17,9 +17,12 @@ namespace fs = std::filesystem;
 
 // The layout field is the path measure was given, as given. Two spellings
 // of one file (relative vs absolute, another working directory) are the
-// same layout when both can be read here and are byte-identical.
-bool same_layout_file(const std::string& a, const std::string& b) {
+// same layout when measure recorded the same digest of its bytes, or when
+// both can be read here and are byte-identical.
+bool same_layout(const MeasurementRecord& x, const MeasurementRecord& y) {
+  const std::string &a = x.layout, &b = y.layout;
   if (a == b) return true;
+  if (!x.layout_sha1.empty() && !y.layout_sha1.empty()) return x.layout_sha1 == y.layout_sha1;
   std::error_code ec;
   if (!fs::is_regular_file(a, ec) || !fs::is_regular_file(b, ec)) return false;
   try {
@@ -48,12 +51,12 @@ void check_same_target(const std::vector<const MeasurementRecord*>& all) {
   const MeasurementRecord& ref = *all[0];
   const MeasurementRecord& first_design = *all[1];
   for (size_t i = 2; i < all.size(); ++i)
-    if (!same_layout_file(first_design.layout, all[i]->layout))
+    if (!same_layout(first_design, *all[i]))
       throw std::invalid_argument(fmt::format(
           "mixed layouts: {} was measured on layout \"{}\" but {} on \"{}\"; a comparison needs every design "
           "measured on one target layout",
           first_design.path.string(), first_design.layout, all[i]->path.string(), all[i]->layout));
-  if (!same_layout_file(ref.layout, first_design.layout))
+  if (!same_layout(ref, first_design))
     throw std::invalid_argument(fmt::format(
         "the reference {} was measured on layout \"{}\" but the designs on \"{}\": measure the bare camera on "
         "the same target layout",

@@ -229,6 +229,21 @@ TEST_CASE("refusals: failed reference, mixed layouts, mixed criteria, no designs
   CHECK(ref_layout.find("the reference cmos.json was measured on layout \"target/layout.json\" but the designs on "
                         "\"other/layout.json\"") != std::string::npos);
 
+  // One layout file given by two paths (measured from two working
+  // directories): the same when measure recorded the same digest, not when
+  // the digests differ.
+  HandMeasurement here = make("A", 6.0, 5.0), there = make("B", 6.0, 5.0);
+  here.layout = "tgt/layout.json";
+  there.layout = "../tgt/layout.json";
+  HandMeasurement ref = make("cmos", 7.0, 6.0);
+  ref.layout = "/abs/tgt/layout.json";
+  here.layout_sha1 = there.layout_sha1 = ref.layout_sha1 = std::string(40, 'a');
+  CHECK_NOTHROW(compare_designs({record(here, "a.json"), record(there, "b.json")}, record(ref, "cmos.json")));
+  there.layout_sha1 = std::string(40, 'b');
+  CHECK(refusal([&] {
+          compare_designs({record(here, "a.json"), record(there, "b.json")}, record(ref, "cmos.json"));
+        }).find("mixed layouts") != std::string::npos);
+
   HandMeasurement changed = make("B", 6.0, 5.0);
   changed.finest_lp_per_mm = 9.0;  // same file name, other element series
   const std::string series = refusal([&] { compare_designs({record(changed, "b.json")}, reference()); });

@@ -115,6 +115,7 @@ MeasurementRecord measurement_from_json(const nlohmann::json& j, const std::stri
   r.design = f.text("design", std::nullopt);
   if (r.design.empty()) throw std::invalid_argument(where + ".design is empty: every measurement needs a design label");
   r.layout = f.text("layout", std::nullopt);
+  if (f.has("layout_sha1")) r.layout_sha1 = f.text("layout_sha1", std::nullopt);
   r.image = f.text("image", std::string());
   r.tactres_version = f.text("tactres_version", std::string());
   if (f.has("preset")) r.preset = f.text("preset", std::nullopt);

@@ -86,6 +86,7 @@ struct HandMeasurement {
   HandLimit h, v;
   double threshold = 0.10;
   std::string layout = "target/layout.json";
+  std::string layout_sha1;  // written when not empty
   bool usable = true;
   std::string problem;
   double nyquist_lp_per_mm = 10.0;
@@ -122,6 +123,7 @@ inline nlohmann::json hand_measurement(const HandMeasurement& m) {
   j["image"] = m.design + ".png";
   j["design"] = m.design;
   j["layout"] = m.layout;
+  if (!m.layout_sha1.empty()) j["layout_sha1"] = m.layout_sha1;
   j["usable"] = m.usable;
   j["problem"] = m.problem.empty() ? nlohmann::json() : nlohmann::json(m.problem);
   j["criterion"] = {{"threshold", m.threshold}, {"significance_z", 2.0}};

@@ -7,6 +7,8 @@
 #include <string>
 #include <system_error>
 
+#include <OpenImageIO/hash.h>
+
 namespace tactres {
 namespace {
 
@@ -103,6 +105,11 @@ std::string read_file(const std::filesystem::path& path) {
   ss << f.rdbuf();
   if (f.bad()) throw std::runtime_error("cannot read " + path.string() + ": read error");
   return ss.str();
+}
+
+std::string file_sha1(const std::filesystem::path& path) {
+  const std::string bytes = read_file(path);
+  return OIIO::SHA1::digest(bytes.data(), bytes.size());
 }
 
 }  // namespace tactres

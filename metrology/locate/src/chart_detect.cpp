@@ -263,8 +263,8 @@ void anchor_by_arrangement(ChartDetection& D, const std::vector<ChartElement>& k
   } else {
     A.labels_read = shift ? A.labels_read : 0;
     A.note = known + (shift ? ", but the group labels read disagree"
-                            : ", but no group label could be read, and nested pairs repeat every 2 groups, so "
-                              "the group is known modulo 2 only");
+                            : ", but none of the generated chart's seven-segment group labels was read, and nested "
+                              "pairs repeat every 2 groups, so by itself it knows the group modulo 2 only");
     D.anchor_description = "none (" + A.note + "): " + relative;
   }
 }

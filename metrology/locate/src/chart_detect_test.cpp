@@ -290,7 +290,7 @@ TEST_CASE("chart detection: a sans-serif group number above an even group's elem
     // Cut, the number is read where the partial element 1 puts it (whole,
     // the box search may read it first).
     if (view.rows < img.rows)
-      CHECK(d.anchor_description.find("1 of 1 group number(s) read above the columns or element 1") !=
+      CHECK(d.anchor_description.find("1 of 1 group number(s) read where the arrangement puts them") !=
             std::string::npos);
     // The largest element found is in group 0 (G0E1, or G0E2 when E1 is cut).
     CHECK(d.elements.front().group == 0);

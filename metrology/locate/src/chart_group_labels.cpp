@@ -221,18 +221,19 @@ std::optional<int> index_from_placed_group_numbers(LabelReader& reader, const Ch
     if (n > best) others += best, best = n, best_j = j;
     else others += n;
   if (best == 0 || best < min_readings || (others > 0 && (best < 2 || best < 2 * others))) {
-    note = read == 0 ? "no group number read above the columns or element 1"
+    note = read == 0 ? "no group number read where the arrangement puts them (above a column, or by an even "
+                       "group's element 1)"
            : best > 0 && best < min_readings && others == 0
-               ? fmt::format("{} group number(s) read above the columns or element 1, fewer than the {} needed here",
+               ? fmt::format("{} group number(s) read where the arrangement puts them, fewer than the {} needed here",
                              best, min_readings)
-               : fmt::format("{} group number(s) read above the columns or element 1, but they do not agree on the "
+               : fmt::format("{} group number(s) read where the arrangement puts them, but they do not agree on the "
                              "group",
                              read);
     return std::nullopt;
   }
   const int k = phase + 12 * best_j, g = floor_div6(k);
-  note = fmt::format("{} of {} group number(s) read above the columns or element 1 fit the largest element found "
-                     "being group {} element {}",
+  note = fmt::format("{} of {} group number(s) read where the arrangement puts them (above a column, or by an even "
+                     "group's element 1) agree: the largest element found is group {} element {}",
                      best, read, g, k - 6 * g + 1);
   return k;
 }

@@ -363,6 +363,13 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
   }
   for (ElementResult& r : M.elements) {
     r.resolved = ok_and_resolved(r, criterion);
+    // Above the threshold yet not resolved: say why, or the status reads
+    // as a contradiction.
+    if (r.status == ElementStatus::ok && !r.resolved && std::isfinite(r.m) && r.m >= criterion.threshold &&
+        !r.gap_flat)
+      r.note += fmt::format("{}m {:.3f} is above the threshold {:g} but not {:g} sigma above 0 (m_sigma {:.3f}): "
+                            "not resolved",
+                            r.note.empty() ? "" : "; ", r.m, criterion.threshold, criterion.significance_z, r.m_sigma);
     r.detectable = r.status == ElementStatus::ok &&
                    is_detectable({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, true}, detectability);
   }

@@ -38,6 +38,9 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
   j["image"] = ctx.image;
   j["design"] = ctx.design;
   j["layout"] = ctx.layout;
+  // The layout's identity, whatever path it was given by (tactres report
+  // compares measurements made from different working directories).
+  if (!ctx.layout_sha1.empty()) j["layout_sha1"] = ctx.layout_sha1;
   j["usable"] = m.usable;
   j["problem"] = m.problem.empty() ? nlohmann::json() : nlohmann::json(m.problem);
   if (ctx.options) {
@@ -135,18 +138,21 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
 
 std::string measurement_csv_header() {
   return "image,design,group,element,orientation,lp_per_mm,px_per_bar,m,m_sigma,status,resolved,cnr,cnr_sigma,"
-         "detectable\n";
+         "detectable,indices\n";
 }
 
 std::string measurement_csv_rows(const Measurement& m, const MeasurementContext& ctx) {
   std::string out;
+  // A chart whose group is unknown: group, element and lp_per_mm are
+  // relative to the largest element found (as the JSON's chart.indices says).
+  const char* indices = ctx.chart && ctx.chart->anchor == ChartAnchor::none ? "relative" : "absolute";
   for (const ElementResult& e : m.elements) {
     const bool ok = e.status == ElementStatus::ok;
-    out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_cell(ctx.image), csv_cell(ctx.design),
+    out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_cell(ctx.image), csv_cell(ctx.design),
                        e.group, e.element, to_string(e.orientation), csv_number(e.lp_per_mm, 4),
                        csv_number(e.px_per_bar, 3), ok ? csv_number(e.m, 5) : "", ok ? csv_number(e.m_sigma, 5) : "",
                        to_string(e.status), e.resolved ? "true" : "false", ok ? csv_number(e.cnr, 4) : "",
-                       ok ? csv_number(e.cnr_sigma, 4) : "", e.detectable ? "true" : "false");
+                       ok ? csv_number(e.cnr_sigma, 4) : "", e.detectable ? "true" : "false", indices);
   }
   return out;
 }

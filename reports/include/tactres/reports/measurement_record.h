@@ -55,6 +55,7 @@ struct MeasurementRecord {
   std::filesystem::path path;     // the JSON file it was read from
   std::string design;             // label, e.g. "T1C1"
   std::string layout;             // the layout file measure was given
+  std::string layout_sha1;        // of that file's bytes, when measure recorded it
   std::string image;              // the capture
   std::string tactres_version;
   std::string preset;             // empty when absent

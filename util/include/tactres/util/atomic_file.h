@@ -61,4 +61,9 @@ void write_file_atomically(const std::filesystem::path& path, std::string_view b
 // Reads a whole file. Throws std::runtime_error with the path.
 std::string read_file(const std::filesystem::path& path);
 
+// The SHA-1 of a file's bytes, 40 hex digits (OpenImageIO's): what
+// identifies a layout file whatever path it was given by. Throws as
+// read_file does.
+std::string file_sha1(const std::filesystem::path& path);
+
 }  // namespace tactres

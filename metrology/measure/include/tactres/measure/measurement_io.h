@@ -28,6 +28,7 @@ struct MeasurementContext {
   std::string image;            // the capture's path as given
   std::string design;           // label, e.g. "T1C1"
   std::string layout;           // the layout file
+  std::string layout_sha1;      // of the layout file's bytes; empty in chart mode
   std::string tactres_version;
   const LoadedImage* loaded = nullptr;
   const MeasureOptions* options = nullptr;
