@@ -19,6 +19,7 @@
 #include "tactres/camera/image_io.h"
 #include "tactres/measure/measure.h"
 #include "tactres/measure/measurement_io.h"
+#include "tactres/measure/overlay.h"
 #include "tactres/util/atomic_file.h"
 #include "tactres/util/parallel.h"
 #include "tactres/targets/layout_json.h"

@@ -7,7 +7,7 @@
 #include <opencv2/highgui.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tactres/measure/measurement_io.h"
+#include "tactres/measure/overlay.h"
 
 namespace tactres {
 

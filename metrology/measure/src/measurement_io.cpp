@@ -157,50 +157,6 @@ std::string measurement_csv_rows(const Measurement& m, const MeasurementContext&
   return out;
 }
 
-cv::Mat overlay_image(const cv::Mat& lum, const Measurement& m) {
-  // Grey background scaled by robust percentiles, NaN shown black.
-  std::vector<float> v;
-  for (int y = 0; y < lum.rows; y += 2)
-    for (int x = 0; x < lum.cols; x += 2)
-      if (std::isfinite(lum.at<float>(y, x))) v.push_back(lum.at<float>(y, x));
-  float lo = 0, hi = 1;
-  if (!v.empty()) {
-    std::sort(v.begin(), v.end());
-    lo = v[v.size() / 200];
-    hi = v[v.size() - 1 - v.size() / 200];
-    if (!(hi > lo)) hi = lo + 1;
-  }
-  cv::Mat grey(lum.size(), CV_8U);
-  for (int y = 0; y < lum.rows; ++y)
-    for (int x = 0; x < lum.cols; ++x) {
-      const float f = lum.at<float>(y, x);
-      grey.at<uchar>(y, x) = std::isfinite(f) ? cv::saturate_cast<uchar>(255.0 * (f - lo) / (hi - lo)) : 0;
-    }
-  cv::Mat out;
-  cv::cvtColor(grey, out, cv::COLOR_GRAY2BGR);
-  const int shift = 4;  // sub-pixel drawing
-  // Lines one pixel wide per 1000 px of the shorter side: a 4K frame is
-  // looked at scaled down, where 1 px lines vanish.
-  const int thickness = std::max(1, int(std::lround(std::min(lum.cols, lum.rows) / 1000.0)));
-  auto P = [&](Vec2 p) { return cv::Point(int(std::lround(p.x * 16)), int(std::lround(p.y * 16))); };
-  for (const ElementResult& e : m.elements) {
-    if (!e.outline_valid) continue;
-    cv::Scalar colour;  // BGR
-    if (e.status == ElementStatus::ok) colour = e.resolved ? cv::Scalar(60, 200, 60) : cv::Scalar(0, 150, 255);
-    else if (e.status == ElementStatus::below_sampling_limit) colour = cv::Scalar(150, 150, 150);
-    else colour = cv::Scalar(40, 40, 230);
-    std::vector<cv::Point> poly;
-    for (Vec2 p : e.outline_px) poly.push_back(P(p));
-    cv::polylines(out, poly, true, colour, thickness, cv::LINE_AA, shift);
-  }
-  for (const FiducialDetection& f : m.fiducials.discs) {
-    cv::circle(out, P(f.centroid_px), 5 * 16 * thickness, cv::Scalar(255, 120, 0), thickness, cv::LINE_AA, shift);
-    cv::putText(out, f.id, cv::Point(int(f.centroid_px.x) + 8, int(f.centroid_px.y) - 8), cv::FONT_HERSHEY_SIMPLEX,
-                0.4, cv::Scalar(255, 120, 0), 1, cv::LINE_AA);
-  }
-  return out;
-}
-
 nlohmann::json chart_to_json(const ChartDetection& d) {
   nlohmann::json j;
   j["mode"] = "usaf1951";

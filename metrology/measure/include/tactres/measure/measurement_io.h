@@ -42,13 +42,9 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
 nlohmann::json chart_to_json(const ChartDetection& d);
 
 // CSV columns (stable, documented in docs/FORMATS.md):
-// image,design,group,element,orientation,lp_per_mm,px_per_bar,m,m_sigma,status,resolved
+// image,design,group,element,orientation,lp_per_mm,px_per_bar,m,m_sigma,status,resolved,cnr,cnr_sigma,
+// detectable,indices
 std::string measurement_csv_header();
 std::string measurement_csv_rows(const Measurement& m, const MeasurementContext& ctx);
-
-// The capture in grey with each element's strip outlined, coloured by
-// status (resolved green, unresolved orange, other statuses red/grey), and
-// the fiducials marked.
-cv::Mat overlay_image(const cv::Mat& luminance, const Measurement& m);
 
 }  // namespace tactres
