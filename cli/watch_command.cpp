@@ -137,6 +137,9 @@ struct StatusLines {
     v.push(fv.present ? std::optional<double>(fv.m) : std::nullopt, r.index);
     if (!tty) return;
     if (drawn) fmt::print(stderr, "\033[2A");
+    // A frame that could not be measured says why in full, on a line of its
+    // own that stays above the two live ones.
+    if (!r.measured) fmt::print(stderr, "\r\033[Kframe {}: unusable: {}\n", r.index, r.problem);
     print(r, "H", BarOrientation::horizontal_bars, fh, h);
     print(r, "V", BarOrientation::vertical_bars, fv, v);
     drawn = true;
@@ -147,7 +150,7 @@ struct StatusLines {
     const std::string focus = f.present ? fmt::format("m(G{}E{}) {:.3f}", f.group, f.element, f.m) : "m -";
     const std::string best = hist.best() ? fmt::format("best {:.3f} @ {}", *hist.best(), hist.best_frame()) : "";
     fmt::print(stderr, "\r\033[K{} frame {:>5} {:>6.1f} ms  {:<28} {:<18} {} {}\n", name, r.index, r.analysis_ms,
-               r.measured ? limit_label(r, o) : r.problem.substr(0, 28), focus, hist.sparkline(), best);
+               r.measured ? limit_label(r, o) : "unusable (see above)", focus, hist.sparkline(), best);
   }
 };
 

@@ -245,11 +245,13 @@
     };
 
     // CNR spans decades (a bright coarse element ~1000, a fine one ~1): a
-    // log axis in whole decades, the k line inside it. A CNR of 0 has no
-    // place on it and is left out (its element is undetectable anyway).
+    // log axis in whole decades, the k line inside it. A CNR under a
+    // hundredth of k (or 0) would stretch the axis over empty decades and
+    // is left out (its element is undetectable anyway).
     var k = data.detectability_k;
+    var cnrFloor = (k || 1) / 100;
     var cnrSpec = {
-      keep: function (p) { return p.c !== null && p.c > 0; },
+      keep: function (p) { return p.c !== null && p.c >= cnrFloor; },
       value: function (p) { return p.c; }, sigma: function (p) { return p.cs; },
       lines: k ? [{ y: k, color: '#b3261e', dash: [6, 4], align: 'left', label: 'Rose threshold k = ' + k }] : [],
       yAxis: function (datasets) {

@@ -148,6 +148,9 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     }
     r.status = clipped ? ElementStatus::clipped : ElementStatus::fit_failed;
     if (clipped) r.note = clipped_note(sp, "; the rest does not pin m down");
+    // Every failed element says why (a placed pattern on empty ground, dust).
+    else r.note = "the profile model could not be fitted here: " +
+                  (fit.problem.empty() ? std::string("no usable fit") : fit.problem);
     return;
   }
   const double m = fit.transfer(r.lp_per_mm);
@@ -169,6 +172,7 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
   r.chi2_reduced = fit.chi2_reduced;
   if (!std::isfinite(m) || !std::isfinite(m_sigma)) {
     r.status = ElementStatus::fit_failed;
+    r.note = "the fit gives no finite m or m_sigma here";
   } else if (!model_mismatch && fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0 &&
              fit.residual_rms > kAliasingMisfitShare * fit.signal_rms * std::max(1.0, 0.05 / std::max(m, 1e-9))) {
     // The bars are not where the geometry puts them at this sampling: the
