@@ -6,6 +6,7 @@
 //
 // What is asserted for every capture, original bytes and 16-bit copy alike:
 // - the exit code is 0, 1 or 2, and the JSON parses with no NaN/inf;
+// - every graded element (status other than ok) has a note saying why;
 // - with absolute indices, no element is called resolved more than one
 //   element beyond the reading.
 // The agreement with the readings (discrete limit within one element,
@@ -113,6 +114,13 @@ void check_exit_codes_and_json() {
       const Run& r = measure(file);
       CHECK((r.exit_code == 0 || r.exit_code == 1 || r.exit_code == 2));
       CHECK(r.j.has_value());
+      // Every graded element says why.
+      if (r.j && r.j->contains("elements"))
+        for (const json& e : (*r.j)["elements"])
+          if (e["status"] != "ok") {
+            CAPTURE(e.dump());
+            CHECK((e["note"].is_string() && !e["note"].get<std::string>().empty()));
+          }
       // Every element placed but not found is listed, and is measured.
       if (!r.j || !r.j->contains("chart") || !(*r.j)["chart"].value("found", false)) continue;
       const json& chart = (*r.j)["chart"];

@@ -257,6 +257,10 @@ double grade_element(ElementResult& r, const SampledProfile& sp, ProfileFitOptio
     // still recover the pre-sampling MTF there, but the image shows an
     // alias, not the bars (docs/CONVENTIONS.md, "Element statuses").
     r.status = ElementStatus::below_sampling_limit;
+    r.note = r.px_per_bar <= 1.0 ? fmt::format("{:.2f} px per bar: at or beyond Nyquist, the image shows an alias",
+                                               r.px_per_bar)
+                                 : fmt::format("{:.2f} px per bar, under the {:.2f} floor (--min-px-per-bar)",
+                                               r.px_per_bar, options.min_px_per_bar);
     return 0;
   }
   // Clipped bins enter the fit as bounds (ProfileData::bound); with most
