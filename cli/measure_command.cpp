@@ -8,7 +8,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <mutex>
+#include <set>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -242,7 +244,12 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
     if (!a.out_dir.empty() && !json_path.empty()) {
       m.usable = false;
       m.problem = e.what();
-      write_file_atomically(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
+      try {
+        write_file_atomically(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
+      } catch (const std::exception& w) {  // the capture's own error stays the news
+        o.problem += std::string("; and its JSON could not be written: ") + w.what();
+        o.summary = fmt::format("{}: error: {}", o.design, o.problem);
+      }
     }
     return o;
   }
@@ -413,6 +420,20 @@ MeasureOptions measure_options(const Args& a, bool batch) {
     throw std::invalid_argument("several images need --out-dir DIR instead of -o/--csv/--overlay");
   if (batch && a.out_dir.empty() && a.junit.empty())
     throw std::invalid_argument("several images need --out-dir DIR (or --junit FILE alone, for a CI gate)");
+  // Two outputs on one path would overwrite each other unsaid.
+  std::set<fs::path> paths;
+  for (const std::string& p : {a.output, a.csv, a.overlay, a.junit})
+    if (!p.empty() && !paths.insert(fs::weakly_canonical(p)).second)
+      throw std::invalid_argument("two outputs go to " + p + ": give each of -o, --csv, --overlay and --junit its own file");
+  if (!a.out_dir.empty()) {
+    std::map<std::string, std::string> by_stem;
+    for (const std::string& image : a.images) {
+      const auto [it, fresh] = by_stem.emplace(fs::path(image).stem().string(), image);
+      if (!fresh)
+        throw std::invalid_argument("two captures, " + it->second + " and " + image + ", would both write " +
+                                    it->first + ".json into --out-dir: rename one, or measure them in two runs");
+    }
+  }
   MeasureOptions options = MeasureOptions::for_preset(preset_from_string(a.preset));
   options.criterion.threshold = a.threshold;
   options.detectability.k = a.detectability_k;
@@ -436,10 +457,11 @@ int run_measure(const Args& a) {
   if (a.chart.empty()) layout = read_layout_file(a.layout), layout_sha1 = file_sha1(a.layout);
   std::optional<CameraModel> camera;
   if (!a.camera.empty()) camera = CameraModel::load(a.camera);
-  if (!a.out_dir.empty()) {
+  // Every folder an output needs, made before anything is measured.
+  for (const fs::path dir : {fs::path(a.out_dir), fs::path(a.junit).parent_path()}) {
     std::error_code ec;
-    fs::create_directories(a.out_dir, ec);
-    if (ec) throw std::runtime_error("cannot create " + a.out_dir + ": " + ec.message());
+    if (!dir.empty()) fs::create_directories(dir, ec);
+    if (ec) throw std::runtime_error("cannot create " + dir.string() + ": " + ec.message());
   }
 
   std::vector<Outcome> outcomes(a.images.size());
@@ -476,7 +498,7 @@ int run_measure(const Args& a) {
   }
   if (!a.junit.empty()) write_file_atomically(a.junit, junit_xml(outcomes));
   // A batch's exit code is its worst capture's (README, "Exit codes").
-  if (outcomes.size() > 1)
+  if (batch)
     fmt::print("{} capture(s): {} measured ({} below spec), {} unusable, {} error(s); exit {}\n", outcomes.size(),
                by_code[kExitOk] + by_code[kExitBelowSpec], by_code[kExitBelowSpec], by_code[kExitUnusableInput],
                by_code[kExitUsageOrIo], worst);

@@ -57,15 +57,14 @@ Command simulate_command() {
               const std::string layout_source =
                   scene.layout_path ? scene.layout_path->string()
                                     : std::string(kDefaultTargetName);
-              const CameraModel camera = [&] {
-                try {
-                  return CameraModel::load(scene.camera_path);
-                } catch (const std::runtime_error& e) {
-                  throw std::runtime_error(fmt::format(
-                      "{} (the scene's \"camera\"; a scene's paths are relative to the scene file's folder)",
-                      e.what()));
-                }
-              }();
+              // A scene's paths are relative to its own folder: say so when
+              // the camera is not there.
+              if (std::error_code ec; !std::filesystem::is_regular_file(scene.camera_path, ec))
+                throw std::runtime_error(fmt::format(
+                    "cannot read the scene's \"camera\" {}: no such file (a scene's paths are relative to the "
+                    "scene file's folder)",
+                    scene.camera_path.string()));
+              const CameraModel camera = CameraModel::load(scene.camera_path);
               const std::filesystem::path out(a->output);
               const std::filesystem::path truth_path =
                   a->truth.empty() ? std::filesystem::path(out.string() + ".truth.json") : std::filesystem::path(a->truth);

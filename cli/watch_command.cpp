@@ -130,6 +130,7 @@ CameraSettings camera_settings(const Args& a) {
 struct StatusLines {
   bool tty = isatty(fileno(stderr));
   bool drawn = false;
+  std::string last_problem;  // of the frame before, if it was unusable
   FocusHistory h{40}, v{40};
 
   void update(const LiveFrameResult& r, const FocusReading& fh, const FocusReading& fv) {
@@ -138,8 +139,11 @@ struct StatusLines {
     if (!tty) return;
     if (drawn) fmt::print(stderr, "\033[2A");
     // A frame that could not be measured says why in full, on a line of its
-    // own that stays above the two live ones.
-    if (!r.measured) fmt::print(stderr, "\r\033[Kframe {}: unusable: {}\n", r.index, r.problem);
+    // own that stays above the two live ones; once per new problem, so that
+    // a dead source does not scroll the terminal at its frame rate.
+    if (!r.measured && r.problem != last_problem)
+      fmt::print(stderr, "\r\033[Kframe {}: unusable: {}\n", r.index, r.problem);
+    last_problem = r.measured ? std::string() : r.problem;
     print(r, "H", BarOrientation::horizontal_bars, fh, h);
     print(r, "V", BarOrientation::vertical_bars, fv, v);
     drawn = true;
@@ -150,7 +154,7 @@ struct StatusLines {
     const std::string focus = f.present ? fmt::format("m(G{}E{}) {:.3f}", f.group, f.element, f.m) : "m -";
     const std::string best = hist.best() ? fmt::format("best {:.3f} @ {}", *hist.best(), hist.best_frame()) : "";
     fmt::print(stderr, "\r\033[K{} frame {:>5} {:>6.1f} ms  {:<28} {:<18} {} {}\n", name, r.index, r.analysis_ms,
-               r.measured ? limit_label(r, o) : "unusable (see above)", focus, hist.sparkline(), best);
+               r.measured ? limit_label(r, o) : "unusable (said above)", focus, hist.sparkline(), best);
   }
 };
 

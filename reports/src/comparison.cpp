@@ -15,14 +15,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The layout field is the path measure was given, as given. Two spellings
-// of one file (relative vs absolute, another working directory) are the
-// same layout when measure recorded the same digest of its bytes, or when
-// both can be read here and are byte-identical.
+// The layout field is the path measure was given, as given. When measure
+// recorded a digest of the file's bytes in both, the digests decide (one
+// file given by two paths is the same layout; a file regenerated at one
+// path is not). Otherwise two spellings of one file (relative vs absolute,
+// another working directory) are the same layout when both can be read
+// here and are byte-identical.
 bool same_layout(const MeasurementRecord& x, const MeasurementRecord& y) {
+  // The digest first: a layout regenerated at the same path is another one.
+  if (!x.layout_sha1.empty() && !y.layout_sha1.empty()) return x.layout_sha1 == y.layout_sha1;
   const std::string &a = x.layout, &b = y.layout;
   if (a == b) return true;
-  if (!x.layout_sha1.empty() && !y.layout_sha1.empty()) return x.layout_sha1 == y.layout_sha1;
   std::error_code ec;
   if (!fs::is_regular_file(a, ec) || !fs::is_regular_file(b, ec)) return false;
   try {

@@ -243,6 +243,11 @@ TEST_CASE("refusals: failed reference, mixed layouts, mixed criteria, no designs
   CHECK(refusal([&] {
           compare_designs({record(here, "a.json"), record(there, "b.json")}, record(ref, "cmos.json"));
         }).find("mixed layouts") != std::string::npos);
+  // One path, two digests: the layout was regenerated between the runs.
+  there.layout = here.layout;
+  CHECK(refusal([&] {
+          compare_designs({record(here, "a.json"), record(there, "b.json")}, record(ref, "cmos.json"));
+        }).find("mixed layouts") != std::string::npos);
 
   HandMeasurement changed = make("B", 6.0, 5.0);
   changed.finest_lp_per_mm = 9.0;  // same file name, other element series

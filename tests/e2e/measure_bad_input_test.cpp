@@ -106,6 +106,36 @@ TEST_CASE("measure: a capture's outputs are written all or none, into folders ma
   CHECK(fs::exists(sub / "m.json"));
   CHECK(fs::exists(sub / "m.png"));
   check_only(sub, {"m.json", "m.png"});
+  // A failed set leaves the earlier results as they were.
+  fs::create_directories(sub / "occupied.png" / "x");  // the overlay's rename will fail
+  r = run_measure(f.dir.path, f.good.string() + " --layout " + f.layout.string() + " -o " + (sub / "m.json").string() +
+                                  " --overlay " + (sub / "occupied.png").string());
+  CHECK(r.exit_code == 3);
+  CHECK(fs::exists(sub / "m.json"));
+  CHECK(fs::exists(sub / "m.png"));
+}
+
+TEST_CASE("measure: outputs that would overwrite each other are refused before anything is measured") {
+  Fixture f;
+  Run r = run_measure(f.dir.path, f.good.string() + " --layout " + f.layout.string() + " -o " +
+                                      (f.dir.path / "same.out").string() + " --csv " + (f.dir.path / "same.out").string());
+  CHECK(r.exit_code == 3);
+  CHECK(r.err.find("two outputs go to") != std::string::npos);
+  // Two captures with one stem would write one <stem>.json.
+  fs::create_directories(f.dir.path / "a");
+  fs::create_directories(f.dir.path / "b");
+  fs::copy_file(f.good, f.dir.path / "a" / "x.tif");
+  fs::copy_file(f.good, f.dir.path / "b" / "x.tif");
+  r = run_measure(f.dir.path, (f.dir.path / "a" / "x.tif").string() + " " + (f.dir.path / "b" / "x.tif").string() +
+                                  " --layout " + f.layout.string() + " --out-dir " + (f.dir.path / "out").string());
+  CHECK(r.exit_code == 3);
+  CHECK(r.err.find("would both write x.json") != std::string::npos);
+  CHECK_FALSE(fs::exists(f.dir.path / "out" / "x.json"));
+  // --junit's folder is made before measuring.
+  r = run_measure(f.dir.path, f.good.string() + " --layout " + f.layout.string() + " --junit " +
+                                  (f.dir.path / "ci" / "j.xml").string());
+  CHECK(r.exit_code == 0);
+  CHECK(fs::exists(f.dir.path / "ci" / "j.xml"));
 }
 
 TEST_CASE("measure: truncated and unreadable images") {

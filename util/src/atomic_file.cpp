@@ -1,5 +1,7 @@
 #include "tactres/util/atomic_file.h"
 
+#include <algorithm>
+#include <cctype>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -73,6 +75,7 @@ void AtomicOutputSet::stage(const std::filesystem::path& final_path,
   try {
     write(outputs_.back()->temp_path());
   } catch (const std::exception& e) {
+    outputs_.pop_back();  // its half-written temporary goes with it, never to be committed
     const std::string why = e.what();
     // A message that names the output already (write_bytes) is not
     // prefixed twice.
@@ -87,15 +90,36 @@ void AtomicOutputSet::stage_bytes(const std::filesystem::path& final_path, std::
 }
 
 void AtomicOutputSet::commit() {
-  for (size_t k = 0; k < outputs_.size(); ++k) {
-    try {
-      outputs_[k]->commit();
-    } catch (...) {
+  namespace fs = std::filesystem;
+  // The files the outputs replace are moved aside first, and put back if
+  // any rename fails: a failed set leaves the earlier results as they were.
+  std::vector<fs::path> aside(outputs_.size());
+  size_t k = 0;
+  try {
+    for (; k < outputs_.size(); ++k) {
+      const fs::path& final_path = outputs_[k]->final_path();
       std::error_code ec;
-      for (size_t j = 0; j < k; ++j) std::filesystem::remove(outputs_[j]->final_path(), ec);
-      throw;
+      if (fs::is_regular_file(final_path, ec)) {
+        aside[k] = final_path.parent_path() / ("." + final_path.filename().string() + ".old-" + random_tag());
+        fs::rename(final_path, aside[k], ec);
+        if (ec) {
+          aside[k].clear();
+          throw std::runtime_error("cannot write " + final_path.string() + ": " + ec.message());
+        }
+      }
+      outputs_[k]->commit();
     }
+  } catch (...) {
+    std::error_code ec;
+    for (size_t j = 0; j < k; ++j) fs::remove(outputs_[j]->final_path(), ec);
+    for (size_t j = 0; j <= k && j < outputs_.size(); ++j)
+      if (!aside[j].empty()) fs::rename(aside[j], outputs_[j]->final_path(), ec);
+    throw;
   }
+  std::error_code ec;
+  for (const fs::path& a : aside)
+    if (!a.empty()) fs::remove(a, ec);
+  outputs_.clear();  // committed: nothing left to commit or to take back
 }
 
 std::string read_file(const std::filesystem::path& path) {
@@ -109,7 +133,9 @@ std::string read_file(const std::filesystem::path& path) {
 
 std::string file_sha1(const std::filesystem::path& path) {
   const std::string bytes = read_file(path);
-  return OIIO::SHA1::digest(bytes.data(), bytes.size());
+  std::string hex = OIIO::SHA1::digest(bytes.data(), bytes.size());
+  std::transform(hex.begin(), hex.end(), hex.begin(), [](unsigned char c) { return std::tolower(c); });
+  return hex;  // lower case, as sha1sum prints it
 }
 
 }  // namespace tactres

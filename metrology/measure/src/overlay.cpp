@@ -4,6 +4,7 @@
 #include "tactres/measure/overlay.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -52,6 +53,25 @@ cv::Mat grey_background(const cv::Mat& lum) {
   return out;
 }
 
+// The convex quadrilateral `q` with every edge moved `by_px` outward along
+// its normal (mitred corners): the same gap on a strip's long and short
+// sides.
+std::array<Vec2, 4> grown(const std::array<Vec2, 4>& q, double by_px) {
+  double twice_area = 0;
+  for (size_t i = 0; i < 4; ++i) twice_area += cross(q[i], q[(i + 1) % 4]);
+  const double outward = twice_area >= 0 ? 1 : -1;  // which side of an edge is outside
+  const auto normal = [&](Vec2 a, Vec2 b) {
+    const Vec2 d = (1.0 / std::max(norm(b - a), 1e-9)) * (b - a);
+    return outward * Vec2{d.y, -d.x};
+  };
+  std::array<Vec2, 4> out;
+  for (size_t i = 0; i < 4; ++i) {
+    const Vec2 n1 = normal(q[(i + 3) % 4], q[i]), n2 = normal(q[i], q[(i + 1) % 4]);
+    out[i] = q[i] + (by_px / std::max(1 + dot(n1, n2), 1e-3)) * (n1 + n2);
+  }
+  return out;
+}
+
 bool is_limit(const ElementResult& e, const Measurement& m) {
   const Limit& l = e.orientation == BarOrientation::horizontal_bars ? m.horizontal : m.vertical;
   return l.any_resolved && e.group == l.group && e.element == l.element;
@@ -71,7 +91,7 @@ cv::Mat key_band(int width_px, double font_scale, int thickness, const Measureme
   const std::vector<Item> items = {
       {kResolved, "resolved"},
       {kNotResolved, "measured, not resolved"},
-      {kGraded, "graded (fit failed, damaged, clipped, out of view, aliased...)"},
+      {kGraded, "graded (see its status)"},
       {kBelowSampling, "below the sampling limit"},
       {kLimit, fmt::format("the limit: H {}, V {}", limit_name(m.horizontal), limit_name(m.vertical))}};
   const int font = cv::FONT_HERSHEY_SIMPLEX, pad = std::max(4, int(10 * font_scale));
@@ -106,34 +126,29 @@ cv::Mat overlay_image(const cv::Mat& lum, const Measurement& m) {
   // looked at scaled down, where 1 px lines vanish.
   const int thickness = std::max(1, int(std::lround(std::min(lum.cols, lum.rows) / 1000.0)));
   auto P = [&](Vec2 p) { return cv::Point(int(std::lround(p.x * 16)), int(std::lround(p.y * 16))); };
-  // The limit elements last: a halo, then their colour on top.
-  std::vector<const ElementResult*> order;
-  for (const ElementResult& e : m.elements)
-    if (e.outline_valid) order.push_back(&e);
-  std::stable_partition(order.begin(), order.end(), [&](const ElementResult* e) { return !is_limit(*e, m); });
-  for (const ElementResult* e : order) {
-    std::vector<cv::Point> poly;
-    for (Vec2 p : e->outline_px) poly.push_back(P(p));
-    cv::polylines(out, poly, true, status_colour(*e), thickness, cv::LINE_AA, shift);
-    if (!is_limit(*e, m)) continue;
-    // A white line in black a few px outside the strip (seen on dark and on
-    // bright ground), so that a small element's bars stay in view.
-    Vec2 c{0, 0};
-    for (Vec2 p : e->outline_px) c = c + 0.25 * p;
+  // The limit elements' halos first: a white line in black a few px
+  // outside the strip (seen on dark and on bright ground, the strip's bars
+  // left in view); then every strip's outline, none hidden under a halo.
+  for (const ElementResult& e : m.elements) {
+    if (!e.outline_valid || !is_limit(e, m)) continue;
     std::vector<cv::Point> halo;
-    for (Vec2 p : e->outline_px) {
-      const Vec2 d = p - c;
-      halo.push_back(P(p + (4.0 * thickness * std::sqrt(2.0) / std::max(norm(d), 1e-9)) * d));
-    }
+    for (Vec2 p : grown(e.outline_px, 4.0 * thickness)) halo.push_back(P(p));
     cv::polylines(out, halo, true, cv::Scalar(0, 0, 0), 3 * thickness, cv::LINE_AA, shift);
     cv::polylines(out, halo, true, kLimit, thickness, cv::LINE_8, shift);  // crisp: no white bleeds into the black
+  }
+  for (const ElementResult& e : m.elements) {
+    if (!e.outline_valid) continue;
+    std::vector<cv::Point> poly;
+    for (Vec2 p : e.outline_px) poly.push_back(P(p));
+    cv::polylines(out, poly, true, status_colour(e), thickness, cv::LINE_AA, shift);
   }
   for (const FiducialDetection& f : m.fiducials.discs) {
     cv::circle(out, P(f.centroid_px), 5 * 16 * thickness, kFiducial, thickness, cv::LINE_AA, shift);
     cv::putText(out, f.id, cv::Point(int(f.centroid_px.x) + 8, int(f.centroid_px.y) - 8), cv::FONT_HERSHEY_SIMPLEX,
                 0.4, kFiducial, 1, cv::LINE_AA);
   }
-  // The key's text about 1/50 of the width tall, within 10-40 px.
+  // The key's text scaled with the width (OpenCV's scale 1 is about 22 px
+  // tall): 0.35-1.4, about 8-31 px.
   const double font_scale = std::clamp(lum.cols / 1600.0, 0.35, 1.4);
   cv::Mat framed;
   cv::vconcat(out, key_band(lum.cols, font_scale, std::max(1, int(std::lround(font_scale))), m), framed);

@@ -8,10 +8,10 @@ using namespace tactres;
 
 namespace {
 
-// A measured element of orientation `o` outlined by the square of side 20
-// px at (x, y).
-ElementResult square(int group, int element, BarOrientation o, ElementStatus status, bool resolved, double x,
-                     double y) {
+// A measured element of orientation `o` outlined by the w x h px rectangle
+// at (x, y).
+ElementResult strip(int group, int element, BarOrientation o, ElementStatus status, bool resolved, double x,
+                    double y, double w = 20, double h = 20) {
   ElementResult e;
   e.group = group;
   e.element = element;
@@ -19,7 +19,7 @@ ElementResult square(int group, int element, BarOrientation o, ElementStatus sta
   e.status = status;
   e.resolved = resolved;
   e.outline_valid = true;
-  e.outline_px = {Vec2{x, y}, Vec2{x + 20, y}, Vec2{x + 20, y + 20}, Vec2{x, y + 20}};
+  e.outline_px = {Vec2{x, y}, Vec2{x + w, y}, Vec2{x + w, y + h}, Vec2{x, y + h}};
   return e;
 }
 
@@ -40,10 +40,10 @@ TEST_CASE("overlay: strips by status, the limit haloed in white, and a key below
   cv::Mat lum(200, 400, CV_32F, cv::Scalar(0.25));
   lum.rowRange(0, 100).setTo(0.75);
   Measurement m;
-  m.elements = {square(1, 1, BarOrientation::horizontal_bars, ElementStatus::ok, true, 40, 40),
-                square(1, 2, BarOrientation::horizontal_bars, ElementStatus::ok, false, 100, 40),
-                square(1, 3, BarOrientation::horizontal_bars, ElementStatus::damaged, false, 160, 40),
-                square(1, 4, BarOrientation::horizontal_bars, ElementStatus::below_sampling_limit, false, 220, 40)};
+  m.elements = {strip(1, 1, BarOrientation::horizontal_bars, ElementStatus::ok, true, 40, 40),
+                strip(1, 2, BarOrientation::horizontal_bars, ElementStatus::ok, false, 100, 40),
+                strip(1, 3, BarOrientation::horizontal_bars, ElementStatus::damaged, false, 160, 40),
+                strip(1, 4, BarOrientation::horizontal_bars, ElementStatus::below_sampling_limit, false, 220, 40)};
   m.horizontal.any_resolved = true;
   m.horizontal.group = 1;
   m.horizontal.element = 1;
@@ -66,4 +66,22 @@ TEST_CASE("overlay: strips by status, the limit haloed in white, and a key below
   // The capture below, and the key's dark grey under the image.
   CHECK(shows(out, 300, 150, {0, 0, 0}));
   CHECK(at(out, 399, out.rows - 1) == cv::Vec3b(32, 32, 32));
+}
+
+TEST_CASE("overlay: the limit's halo is as far from a long strip's sides as from its ends, and hides no outline") {
+  cv::Mat lum(200, 400, CV_32F, cv::Scalar(0.25));
+  lum.rowRange(0, 100).setTo(0.75);  // bright where the strips are
+  Measurement m;
+  // A 60 x 12 px limit strip, and a neighbour's outline 3 px below it,
+  // where the halo's black band runs.
+  m.elements = {strip(2, 1, BarOrientation::vertical_bars, ElementStatus::ok, true, 100, 40, 60, 12),
+                strip(2, 2, BarOrientation::vertical_bars, ElementStatus::ok, false, 100, 55, 60, 12)};
+  m.vertical.any_resolved = true;
+  m.vertical.group = 2;
+  m.vertical.element = 1;
+  const cv::Mat out = overlay_image(lum, m);
+  CHECK(shows(out, 130, 36, {255, 255, 255}));  // 4 px above the long side
+  CHECK(shows(out, 96, 46, {255, 255, 255}));   // 4 px left of the short side
+  CHECK(shows(out, 164, 46, {255, 255, 255}));  // 4 px right of it
+  CHECK(shows(out, 130, 55, {0, 150, 255}));    // the neighbour's orange edge, drawn over the halo
 }

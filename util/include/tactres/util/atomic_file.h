@@ -46,8 +46,10 @@ class AtomicOutputSet {
              const std::function<void(const std::filesystem::path& temp_path)>& write);
   // Stages `bytes` as the file `final_path`.
   void stage_bytes(const std::filesystem::path& final_path, std::string_view bytes);
-  // Renames every staged output into place. Throws std::runtime_error
-  // naming the path on failure, having removed the ones already renamed.
+  // Renames every staged output into place, over any earlier file of that
+  // name. Throws std::runtime_error naming the path on failure, having
+  // removed the ones already renamed and put the earlier files back. After
+  // a commit the set is empty.
   void commit();
   size_t size() const { return outputs_.size(); }
 
@@ -61,7 +63,7 @@ void write_file_atomically(const std::filesystem::path& path, std::string_view b
 // Reads a whole file. Throws std::runtime_error with the path.
 std::string read_file(const std::filesystem::path& path);
 
-// The SHA-1 of a file's bytes, 40 hex digits (OpenImageIO's): what
+// The SHA-1 of a file's bytes, 40 lower-case hex digits (OpenImageIO's): what
 // identifies a layout file whatever path it was given by. Throws as
 // read_file does.
 std::string file_sha1(const std::filesystem::path& path);
