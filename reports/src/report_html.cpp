@@ -430,7 +430,8 @@ std::string render_html_report(const Comparison& c, const HtmlReportOptions& opt
   s += curves_section(c);
 
   s += "<section id=\"overlays\">\n<h2>Overlays</h2>\n<p class=\"note\" style=\"margin-top:0\">Each capture with "
-       "the sampled strips coloured by status (green resolved, orange not resolved, red/grey not measurable). "
+       "the sampled strips coloured by status (green resolved, orange not resolved, red graded, purple below the "
+       "sampling limit; the limit element of each orientation in a white line; a key under each image). "
        "Click to enlarge.</p>\n";
   s += thumbnails(c, options.thumbnail_max_px);
   s += "</section>\n";
