@@ -148,8 +148,8 @@ cv::Mat overlay_image(const cv::Mat& lum, const Measurement& m) {
                 0.4, kFiducial, 1, cv::LINE_AA);
   }
   // The key's text scaled with the width (OpenCV's scale 1 is about 22 px
-  // tall): 0.35-1.4, about 8-31 px.
-  const double font_scale = std::clamp(lum.cols / 1600.0, 0.35, 1.4);
+  // tall): 0.35-3, about 8-66 px, so that a 4K frame's key reads scaled down.
+  const double font_scale = std::clamp(lum.cols / 1600.0, 0.35, 3.0);
   cv::Mat framed;
   cv::vconcat(out, key_band(lum.cols, font_scale, std::max(1, int(std::lround(font_scale))), m), framed);
   return framed;
