@@ -77,7 +77,7 @@ TEST_CASE("AtomicOutputSet: a rename that fails takes back the ones already made
   CHECK(fs::is_directory(f.path / "b.json"));
 }
 
-TEST_CASE("AtomicOutputSet: a failed set leaves the earlier results as they were; a good one replaces them") {
+TEST_CASE("AtomicOutputSet: a failed set leaves the earlier results as they were, a good one replaces them") {
   Folder f;
   write_file_atomically(f.path / "r.json", "old json");
   write_file_atomically(f.path / "r.csv", "old csv");
