@@ -458,7 +458,7 @@ int run_measure(const Args& a) {
   std::optional<CameraModel> camera;
   if (!a.camera.empty()) camera = CameraModel::load(a.camera);
   // Every folder an output needs, made before anything is measured.
-  for (const fs::path dir : {fs::path(a.out_dir), fs::path(a.junit).parent_path()}) {
+  for (const fs::path& dir : {fs::path(a.out_dir), fs::path(a.junit).parent_path()}) {
     std::error_code ec;
     if (!dir.empty()) fs::create_directories(dir, ec);
     if (ec) throw std::runtime_error("cannot create " + dir.string() + ": " + ec.message());

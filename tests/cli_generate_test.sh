@@ -21,6 +21,7 @@ done
 n=$(ls -A "$work/good" | wc -l)
 [ "$n" -eq 6 ] || fail "expected exactly 6 files in the output folder, found $n: $(ls -A "$work/good")"
 grep -q "800 x 800 px" "$work/stdout" || fail "summary does not give the raster size: $(cat "$work/stdout")"
+grep -q "wrote 6 files to" "$work/stdout" || fail "summary does not count the six files written: $(cat "$work/stdout")"
 grep -q "groups 0..4" "$work/stdout" || fail "summary does not give the groups"
 head -c 5 "$work/good/relief.stl" | grep -q solid && fail "relief.stl looks like ASCII STL"
 grep -q '"schema": *"tactres.target/1"' "$work/good/layout.json" || fail "layout.json lacks its schema"

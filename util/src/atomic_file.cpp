@@ -33,18 +33,23 @@ void write_bytes(const std::filesystem::path& temp_path, const std::filesystem::
   if (!f) throw std::runtime_error("cannot write " + final_path.string() + ": write failed (disk full?)");
 }
 
+// ".name.<what>-XXXXXXXX.ext" beside `path`: hidden, unique, and with the
+// real extension last (so that format-sniffing writers work).
+std::filesystem::path hidden_sibling(const std::filesystem::path& path, const char* what) {
+  std::string name = ".";  // appended piecewise: GCC 12 warns falsely on a chain of +
+  name += path.stem().string();
+  name += ".";
+  name += what;
+  name += "-";
+  name += random_tag();
+  name += path.extension().string();
+  return path.has_parent_path() ? path.parent_path() / name : std::filesystem::path(name);
+}
+
 }  // namespace
 
-AtomicOutput::AtomicOutput(std::filesystem::path final_path) : final_path_(std::move(final_path)) {
-  // ".name.tmp-XXXXXXXX.ext": hidden, unique, and with the real extension last.
-  const auto dir = final_path_.parent_path();
-  std::string name = ".";  // appended piecewise: GCC 12 warns falsely on a chain of +
-  name += final_path_.stem().string();
-  name += ".tmp-";
-  name += random_tag();
-  name += final_path_.extension().string();
-  temp_path_ = dir.empty() ? std::filesystem::path(name) : dir / name;
-}
+AtomicOutput::AtomicOutput(std::filesystem::path final_path)
+    : final_path_(std::move(final_path)), temp_path_(hidden_sibling(final_path_, "tmp")) {}
 
 AtomicOutput::~AtomicOutput() {
   if (!committed_) {
@@ -91,6 +96,7 @@ void AtomicOutputSet::stage_bytes(const std::filesystem::path& final_path, std::
 
 void AtomicOutputSet::commit() {
   namespace fs = std::filesystem;
+  if (committed_) return;
   // The files the outputs replace are moved aside first, and put back if
   // any rename fails: a failed set leaves the earlier results as they were.
   std::vector<fs::path> aside(outputs_.size());
@@ -100,7 +106,7 @@ void AtomicOutputSet::commit() {
       const fs::path& final_path = outputs_[k]->final_path();
       std::error_code ec;
       if (fs::is_regular_file(final_path, ec)) {
-        aside[k] = final_path.parent_path() / ("." + final_path.filename().string() + ".old-" + random_tag());
+        aside[k] = hidden_sibling(final_path, "old");
         fs::rename(final_path, aside[k], ec);
         if (ec) {
           aside[k].clear();
@@ -119,7 +125,7 @@ void AtomicOutputSet::commit() {
   std::error_code ec;
   for (const fs::path& a : aside)
     if (!a.empty()) fs::remove(a, ec);
-  outputs_.clear();  // committed: nothing left to commit or to take back
+  committed_ = true;
 }
 
 std::string read_file(const std::filesystem::path& path) {

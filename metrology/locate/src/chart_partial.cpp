@@ -85,10 +85,10 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
     // (a blurred numeral's strokes: dev_04's "6" beside G5E6, 11 deg) is no
     // element. Those found on the development set lie within 6.5 deg of
     // the nearest element's axes, distortion included.
-    const double along_x = std::abs(dot(p.bar_dir, ex));
-    if (std::min(std::acos(std::min(along_x, 1.0)), std::asin(std::min(along_x, 1.0))) > kLoneAxisTolerance) continue;
+    const double along_x = std::min(std::abs(dot(p.bar_dir, ex)), 1.0);
+    if (std::min(std::acos(along_x), std::asin(along_x)) > kLoneAxisTolerance) continue;
     ChartElement e;
-    (std::abs(dot(p.bar_dir, ex)) > std::cos(30 * M_PI / 180) ? e.h : e.v) = k;
+    (along_x > std::cos(30 * M_PI / 180) ? e.h : e.v) = k;
     e.period_px = p.period_px;
     e.relative_index = index;
     place_partner(D, e, ex, img.cols, img.rows);

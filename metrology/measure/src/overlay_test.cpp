@@ -12,10 +12,7 @@ namespace {
 // at (x, y).
 ElementResult strip(int group, int element, BarOrientation o, ElementStatus status, bool resolved, double x,
                     double y, double w = 20, double h = 20) {
-  ElementResult e;
-  e.group = group;
-  e.element = element;
-  e.orientation = o;
+  ElementResult e = ElementResult::of(group, element, o, 1.0, 3.0);
   e.status = status;
   e.resolved = resolved;
   e.outline_valid = true;

@@ -35,8 +35,9 @@ class AtomicOutput {
 // Several outputs written all-or-nothing (a capture's JSON, CSV and
 // overlay; a target's six files): each is staged to its temporary sibling,
 // and commit() renames them all into place. Should one stage or rename
-// fail, nothing of the set is left: the staged files are removed, and the
-// ones already renamed too. Destroyed uncommitted, it leaves nothing.
+// fail, nothing of the set is left: the staged files are removed, the ones
+// already renamed too, and the earlier files they replaced are put back.
+// Destroyed uncommitted, it leaves nothing.
 class AtomicOutputSet {
  public:
   // Stages one output: `write` writes it to the temporary path it is given.
@@ -48,13 +49,15 @@ class AtomicOutputSet {
   void stage_bytes(const std::filesystem::path& final_path, std::string_view bytes);
   // Renames every staged output into place, over any earlier file of that
   // name. Throws std::runtime_error naming the path on failure, having
-  // removed the ones already renamed and put the earlier files back. After
-  // a commit the set is empty.
+  // removed the ones already renamed and put the earlier files back. A
+  // second commit does nothing.
   void commit();
+  // How many outputs were staged (and, after commit, written).
   size_t size() const { return outputs_.size(); }
 
  private:
   std::vector<std::unique_ptr<AtomicOutput>> outputs_;
+  bool committed_ = false;
 };
 
 // Writes `bytes` to `path` atomically. Throws std::runtime_error with the path.
