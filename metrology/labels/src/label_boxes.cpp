@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include <opencv2/core.hpp>
@@ -70,12 +71,28 @@ struct InkSource {
   double noise = 0;
 };
 
-InkSource ink_source(const cv::Mat& grey_region, Ink ink) {
+InkSource ink_source(const cv::Mat& ink_dark) {
   InkSource s;
-  s.g = ink == Ink::light ? cv::Mat(-grey_region) : grey_region;
+  s.g = ink_dark;
   cv::GaussianBlur(s.g, s.smooth, cv::Size(), 0.7);
   s.noise = noise_sigma(s.g);
   return s;
+}
+
+// Character heights of kLevelCharPx and more are searched octaves down a
+// Gaussian pyramid, where they are still that tall: the mask, the blobs
+// and the local extremes cost in proportion to the pixels, and the
+// numbers beside a chart's coarse elements are many times taller than
+// the finest (dev_02: four bands of 10 ms each at full size). The boxes
+// are only where OCR looks (at full size): a pixel or two up there moves
+// none of them by more than their padding.
+constexpr double kLevelCharPx = 12;
+
+// The octave at which a band starting at `min_char_height_px` is searched.
+int band_level(double min_char_height_px) {
+  int level = 0;
+  while (min_char_height_px * std::exp2(-(level + 1)) >= kLevelCharPx) ++level;
+  return level;
 }
 
 // The ink of the search region (CV_8U mask): pixels darker than halfway
@@ -115,9 +132,12 @@ namespace {
 
 // The boxes of one band of character heights (search's min..max), found
 // with an ink threshold whose window suits that band.
-std::vector<cv::Rect> boxes_in_band(const InkSource& source, const cv::Rect& region, const cv::Size& image_size,
-                                    const LabelBoxSearch& search) {
+// `source` is `level` octaves down, and so is `search`'s band of heights;
+// the boxes are in full-size image pixels.
+std::vector<cv::Rect> boxes_in_band(const InkSource& source, int level, const cv::Rect& region,
+                                    const cv::Size& image_size, const LabelBoxSearch& search) {
   const cv::Rect image({0, 0}, image_size);
+  const int scale = 1 << level;
   const cv::Mat ink = ink_mask(source, search.max_char_height_px);
   const std::vector<Blob> blobs = labels_detail::find_blobs(ink);
   const std::vector<bool> bars = labels_detail::bar_blobs(blobs);
@@ -175,8 +195,9 @@ std::vector<cv::Rect> boxes_in_band(const InkSource& source, const cv::Rect& reg
     if (minus_group[j] >= 0) boxes[static_cast<size_t>(minus_group[j])] |= minus_signs[j]->box;
 
   for (size_t i = 0; i < boxes.size(); ++i) {
-    const int pad = static_cast<int>(std::ceil(0.25 * heights[i]));
-    boxes[i] = (boxes[i] + region.tl() - cv::Point(pad, pad) + cv::Size(2 * pad, 2 * pad)) & image;
+    const int pad = static_cast<int>(std::ceil(0.25 * heights[i] * scale));
+    const cv::Rect full(boxes[i].x * scale, boxes[i].y * scale, boxes[i].width * scale, boxes[i].height * scale);
+    boxes[i] = (full + region.tl() - cv::Point(pad, pad) + cv::Size(2 * pad, 2 * pad)) & image;
   }
   return boxes;
 }
@@ -196,20 +217,33 @@ std::vector<cv::Rect> find_label_boxes(const cv::Mat& luminance, const LabelBoxS
   // Only the region is converted (a chart's numbers lie within the
   // elements' reach, often a fraction of the frame).
   const cv::Mat grey = labels_detail::to_float_grey(luminance(region));
-  const InkSource source = ink_source(grey, search.ink);
+  // The pyramid of the ink-dark region, and each level's source, made when
+  // a band first needs it.
+  std::vector<cv::Mat> pyramid = {search.ink == Ink::light ? cv::Mat(-grey) : grey};
+  std::vector<std::optional<InkSource>> sources(1);
   std::vector<cv::Rect> boxes;
   for (double lo = search.min_char_height_px; lo <= search.max_char_height_px; lo *= 2) {
+    const double hi = std::min(search.max_char_height_px, 2.5 * lo);
+    int level = band_level(lo);
+    while (level > 0 && (std::min(region.width, region.height) >> level) < 16) --level;
+    while (int(pyramid.size()) <= level) {
+      cv::Mat down;
+      cv::pyrDown(pyramid.back(), down);
+      pyramid.push_back(down);
+      sources.emplace_back();
+    }
+    if (!sources[size_t(level)]) sources[size_t(level)] = ink_source(pyramid[size_t(level)]);
     LabelBoxSearch band = search;
-    band.min_char_height_px = lo;
-    band.max_char_height_px = std::min(search.max_char_height_px, 2.5 * lo);
-    for (const cv::Rect& b : boxes_in_band(source, region, luminance.size(), band)) {
+    band.min_char_height_px = lo * std::exp2(-level);
+    band.max_char_height_px = hi * std::exp2(-level);
+    for (const cv::Rect& b : boxes_in_band(*sources[size_t(level)], level, region, luminance.size(), band)) {
       // The same number found in two bands: keep the first.
       const bool seen = std::any_of(boxes.begin(), boxes.end(), [&](const cv::Rect& k) {
         return (k & b).area() > 0.5 * std::min(k.area(), b.area());
       });
       if (!seen) boxes.push_back(b);
     }
-    if (band.max_char_height_px >= search.max_char_height_px) break;
+    if (hi >= search.max_char_height_px) break;
   }
   std::sort(boxes.begin(), boxes.end(),
             [](const cv::Rect& a, const cv::Rect& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
