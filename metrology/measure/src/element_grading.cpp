@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <optional>
 #include <tuple>
@@ -9,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "tactres/profiles/gap_dips.h"
+#include "tactres/targets/usaf_series.h"
 #include "tactres/util/stopwatch.h"
 
 namespace tactres {
@@ -348,11 +350,38 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
   }
 }
 
+namespace {
+
+// On a chart photograph, the elements of the series between the coarsest
+// and the finest of one orientation that were not found at all (cut off,
+// under dust, beyond the detector's reach): unmeasured, so that the chain
+// lists them where it passes them (Limit::bridged) instead of passing them
+// in silence (a copy of dev_11 cut in half lost all of group 1, and its H
+// limit went from G0E6 to G2E5 with nothing said).
+void add_elements_not_found(const Measurement& M, BarOrientation o, std::vector<MPoint>& m,
+                            std::vector<CnrPoint>& cnr) {
+  std::map<int, double> lp_per_mm_by_index;  // by usaf_index
+  for (const ElementResult& r : M.elements)
+    if (r.orientation == o) lp_per_mm_by_index[usaf_index(r.group, r.element)] = r.lp_per_mm;
+  if (lp_per_mm_by_index.empty()) return;
+  const auto [first, first_lp_per_mm] = *lp_per_mm_by_index.begin();
+  for (int n = first + 1; n < lp_per_mm_by_index.rbegin()->first; ++n) {
+    if (lp_per_mm_by_index.count(n)) continue;
+    const UsafElement e = usaf_element_at(n);
+    const double lp_per_mm = first_lp_per_mm * std::exp2((n - first) / double(kUsafElementsPerGroup));
+    m.push_back({e.group, e.element, lp_per_mm, 0, 0, false, true});
+    cnr.push_back({e.group, e.element, lp_per_mm, 0, 0, false, true});
+  }
+}
+
+}  // namespace
+
 void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,
                    bool chart_photograph) {
   for (const BarOrientation o : {BarOrientation::horizontal_bars, BarOrientation::vertical_bars}) {
     std::vector<MPoint> m;
     std::vector<CnrPoint> cnr;
+    if (chart_photograph) add_elements_not_found(M, o, m, cnr);
     for (const ElementResult& r : M.elements) {
       if (r.orientation != o) continue;
       const bool ok = r.status == ElementStatus::ok, unmeasured = is_unmeasured(r, chart_photograph);

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <numbers>
+#include <tuple>
+#include <vector>
 
 #include <doctest/doctest.h>
 #include <opencv2/imgproc.hpp>
@@ -272,4 +274,40 @@ TEST_CASE("a flat gap: an ok element whose triplet shows two bars is never resol
   Measurement plain = row_of({0.8, 0.6, 0.5, 0.3, 0.2, 0.05});
   decide_limits(plain, c, {}, true);
   CHECK(plain.vertical_parts.optical.element == 5);
+}
+
+TEST_CASE("elements not found: a chart photograph's chain lists the ones it passes, a layout has none missing") {
+  Criterion c;
+  // G2E3 and G2E4 were never found (cut off): only E1, E2, E5, E6 measured.
+  Measurement M = row_of({0.8, 0.7, 0.6, 0.5, 0.4, 0.05});
+  M.elements.erase(M.elements.begin() + 2, M.elements.begin() + 4);
+  decide_limits(M, c, {}, true);
+  const Limit& optical = M.vertical_parts.optical;
+  CHECK(optical.group == 2);
+  CHECK(optical.element == 5);
+  REQUIRE(optical.bridged.size() == 2);
+  CHECK(optical.bridged[0].element == 3);
+  CHECK(optical.bridged[1].element == 4);
+  // Across a group boundary and with relative (negative) groups.
+  Measurement R;
+  for (const auto& [group, element, m] : std::vector<std::tuple<int, int, double>>{{-1, 5, 0.9}, {0, 2, 0.8}, {0, 3, 0.01}}) {
+    ElementResult r = ElementResult::of(group, element, BarOrientation::horizontal_bars,
+                                        std::exp2(group + (element - 1) / 6.0), 5.0);
+    r.status = ElementStatus::ok;
+    r.m = m;
+    r.m_sigma = 0.02;
+    R.elements.push_back(r);
+  }
+  decide_limits(R, c, {}, true);
+  const Limit& h = R.horizontal_parts.optical;
+  CHECK(h.element == 2);
+  REQUIRE(h.bridged.size() == 2);
+  CHECK((h.bridged[0].group == -1 && h.bridged[0].element == 6));
+  CHECK((h.bridged[1].group == 0 && h.bridged[1].element == 1));
+  // A layout lists what its target holds: nothing is missing from it.
+  Measurement L = row_of({0.8, 0.7, 0.6, 0.5, 0.4, 0.05});
+  L.elements.erase(L.elements.begin() + 2, L.elements.begin() + 4);
+  decide_limits(L, c, {}, false);
+  CHECK(L.vertical_parts.optical.element == 5);
+  CHECK(L.vertical_parts.optical.bridged.empty());
 }

@@ -12,4 +12,12 @@ double usaf_lp_per_mm(int group, int element);
 double usaf_bar_width_mm(int group, int element);  // 1 / (2 lp/mm)
 double usaf_bar_length_mm(int group, int element);  // 5 bar widths
 
+// The series index of an element, 6 group + element - 1 (G0E1 is 0, G-1E6
+// is -1), and back.
+struct UsafElement {
+  int group = 0, element = 1;
+};
+inline int usaf_index(int group, int element) { return kUsafElementsPerGroup * group + element - 1; }
+UsafElement usaf_element_at(int index);
+
 }  // namespace tactres
