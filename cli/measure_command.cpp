@@ -177,6 +177,7 @@ void summarise(const Args& a, const Measurement& m, const ChartDetection* chart,
 
 struct OutputPaths {
   fs::path json, csv, overlay;  // empty: not written
+  std::vector<fs::path> all() const { return {json, csv, overlay}; }
 };
 
 // In a batch (or with --out-dir) every capture's outputs go to the folder,
@@ -420,11 +421,6 @@ MeasureOptions measure_options(const Args& a, bool batch) {
     throw std::invalid_argument("several images need --out-dir DIR instead of -o/--csv/--overlay");
   if (batch && a.out_dir.empty() && a.junit.empty())
     throw std::invalid_argument("several images need --out-dir DIR (or --junit FILE alone, for a CI gate)");
-  // Two outputs on one path would overwrite each other unsaid.
-  std::set<fs::path> paths;
-  for (const std::string& p : {a.output, a.csv, a.overlay, a.junit})
-    if (!p.empty() && !paths.insert(fs::weakly_canonical(p)).second)
-      throw std::invalid_argument("two outputs go to " + p + ": give each of -o, --csv, --overlay and --junit its own file");
   if (!a.out_dir.empty()) {
     std::map<std::string, std::string> by_stem;
     for (const std::string& image : a.images) {
@@ -434,6 +430,15 @@ MeasureOptions measure_options(const Args& a, bool batch) {
                                     it->first + ".json into --out-dir: rename one, or measure them in two runs");
     }
   }
+  // Two outputs on one path would overwrite each other unsaid, and an
+  // output on an input would destroy it (the overlay over its capture).
+  std::vector<fs::path> outputs = {a.output, a.csv, a.overlay, a.junit}, inputs = {a.layout, a.camera};
+  for (const std::string& image : a.images) {
+    inputs.emplace_back(image);
+    if (!a.out_dir.empty())
+      for (const fs::path& p : output_paths(a, image, batch).all()) outputs.push_back(p);
+  }
+  refuse_colliding_outputs(outputs, inputs);
   MeasureOptions options = MeasureOptions::for_preset(preset_from_string(a.preset));
   options.criterion.threshold = a.threshold;
   options.detectability.k = a.detectability_k;

@@ -78,8 +78,11 @@ Command report_command() {
             return [a]() {
               if (a->html.empty() && a->csv.empty())
                 throw std::invalid_argument("say where the report goes: --html report.html and/or --csv report.csv");
-              if (!a->html.empty() && !a->csv.empty() && fs::path(a->html) == fs::path(a->csv))
-                throw std::invalid_argument("--html and --csv name the same file: " + a->html);
+              // An output over an input (a measurement, the reference)
+              // would destroy it.
+              std::vector<fs::path> inputs(a->results.begin(), a->results.end());
+              inputs.insert(inputs.end(), {a->reference, a->chart_js});
+              refuse_colliding_outputs({a->html, a->csv}, inputs);
               HtmlReportOptions html_options;
               html_options.chart_js = a->chart_js;
               html_options.thumbnail_max_px = a->thumbnail_px;

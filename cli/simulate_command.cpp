@@ -68,6 +68,10 @@ Command simulate_command() {
               const std::filesystem::path out(a->output);
               const std::filesystem::path truth_path =
                   a->truth.empty() ? std::filesystem::path(out.string() + ".truth.json") : std::filesystem::path(a->truth);
+              // An output over an input (the scene, its layout or camera)
+              // would destroy it.
+              refuse_colliding_outputs({out, truth_path},
+                                       {a->scene, scene.layout_path.value_or(""), scene.camera_path});
               std::string ext = out.extension().string();
               std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
               // The truth describes the pixels exactly as rendered: a lossy

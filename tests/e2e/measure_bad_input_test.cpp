@@ -121,6 +121,14 @@ TEST_CASE("measure: outputs that would overwrite each other are refused before a
                                       (f.dir.path / "same.out").string() + " --csv " + (f.dir.path / "same.out").string());
   CHECK(r.exit_code == 3);
   CHECK(r.err.find("two outputs go to") != std::string::npos);
+  // The overlay over its own capture would destroy it.
+  const std::string capture_bytes = read_file(f.good);
+  r = run_measure(f.dir.path, f.good.string() + " --layout " + f.layout.string() + " -o " +
+                                  (f.dir.path / "m.json").string() + " --overlay " + f.good.string());
+  CHECK(r.exit_code == 3);
+  CHECK(r.err.find("is also an input") != std::string::npos);
+  CHECK(read_file(f.good) == capture_bytes);
+  CHECK_FALSE(fs::exists(f.dir.path / "m.json"));
   // Two captures with one stem would write one <stem>.json.
   fs::create_directories(f.dir.path / "a");
   fs::create_directories(f.dir.path / "b");

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -10,6 +12,7 @@
 #include <system_error>
 
 #include <OpenImageIO/hash.h>
+#include <sys/stat.h>
 
 namespace tactres {
 namespace {
@@ -126,6 +129,57 @@ void AtomicOutputSet::commit() {
   for (const fs::path& a : aside)
     if (!a.empty()) fs::remove(a, ec);
   committed_ = true;
+}
+
+namespace {
+
+// What identifies a file: its canonical path, and for one that exists its
+// device and inode too (a hard or symbolic link to an input).
+struct FileKeys {
+  std::string path;
+  std::optional<std::pair<dev_t, ino_t>> inode;
+};
+
+FileKeys keys_of(const std::filesystem::path& p) {
+  // Absolute first: of a relative path none of whose parts exists,
+  // weakly_canonical gives the path back as it was ("x.json" against
+  // "./x.json").
+  std::error_code ec;
+  const std::filesystem::path absolute = std::filesystem::absolute(p, ec);
+  const std::filesystem::path canonical = std::filesystem::weakly_canonical(ec ? p : absolute, ec);
+  FileKeys k{(ec ? absolute : canonical).lexically_normal().string(), std::nullopt};
+  struct stat st {};
+  if (::stat(p.c_str(), &st) == 0) k.inode = std::pair<dev_t, ino_t>(st.st_dev, st.st_ino);
+  return k;
+}
+
+}  // namespace
+
+void refuse_colliding_outputs(const std::vector<std::filesystem::path>& outputs,
+                              const std::vector<std::filesystem::path>& inputs) {
+  // Whose each key is: an input's, or an earlier output's.
+  std::map<std::string, std::pair<bool, std::filesystem::path>> by_path;
+  std::map<std::pair<dev_t, ino_t>, std::pair<bool, std::filesystem::path>> by_inode;
+  for (const std::filesystem::path& in : inputs) {
+    if (in.empty()) continue;
+    const FileKeys k = keys_of(in);
+    by_path.emplace(k.path, std::pair(true, in));
+    if (k.inode) by_inode.emplace(*k.inode, std::pair(true, in));
+  }
+  for (const std::filesystem::path& out : outputs) {
+    if (out.empty()) continue;
+    const FileKeys k = keys_of(out);
+    const std::pair<bool, std::filesystem::path>* owner = nullptr;
+    if (const auto it = by_path.find(k.path); it != by_path.end()) owner = &it->second;
+    if (const auto it = k.inode ? by_inode.find(*k.inode) : by_inode.end(); !owner && it != by_inode.end())
+      owner = &it->second;
+    if (owner && owner->first)
+      throw std::invalid_argument("the output " + out.string() + " is also an input (" + owner->second.string() +
+                                  "): writing it would destroy it; give the output another path");
+    if (owner) throw std::invalid_argument("two outputs go to " + out.string() + ": give each its own file");
+    by_path.emplace(k.path, std::pair(false, out));
+    if (k.inode) by_inode.emplace(*k.inode, std::pair(false, out));
+  }
 }
 
 std::string read_file(const std::filesystem::path& path) {

@@ -108,3 +108,26 @@ TEST_CASE("file_sha1: the SHA-1 of the bytes, lower-case hex") {
   write_file_atomically(f.path / "abc.txt", "abc");
   CHECK(file_sha1(f.path / "abc.txt") == "a9993e364706816aba3e25717850c26c9cd0d89d");
 }
+
+TEST_CASE("refuse_colliding_outputs: an output over an input or another output is refused, by any path to it") {
+  Folder f;
+  const fs::path capture = f.path / "capture.png";
+  std::ofstream(capture) << "pixels";
+  fs::create_symlink(capture, f.path / "link.png");
+  const fs::path cwd = fs::current_path();
+  fs::current_path(f.path);
+  const auto refused = [](const std::vector<fs::path>& out, const std::vector<fs::path>& in, const char* says) {
+    try {
+      refuse_colliding_outputs(out, in);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what()).find(says) != std::string::npos;
+    }
+    return false;
+  };
+  CHECK(refused({"x.json", "capture.png"}, {"capture.png"}, "is also an input"));
+  CHECK(refused({"./sub/../capture.png"}, {capture}, "is also an input"));
+  CHECK(refused({"link.png"}, {"capture.png"}, "is also an input"));  // a link to it
+  CHECK(refused({"x.json", "./x.json"}, {}, "two outputs go to"));     // neither exists yet
+  CHECK_NOTHROW(refuse_colliding_outputs({"x.json", "x.csv", "", ""}, {"capture.png", ""}));
+  fs::current_path(cwd);
+}

@@ -60,6 +60,13 @@ class AtomicOutputSet {
   bool committed_ = false;
 };
 
+// Refuses outputs that would destroy an input or each other: throws
+// std::invalid_argument when one of `outputs` is the same file as one of
+// `inputs` (by path, or by identity when both exist: a link) or as another
+// output. Empty paths are skipped. Call it before anything is computed.
+void refuse_colliding_outputs(const std::vector<std::filesystem::path>& outputs,
+                              const std::vector<std::filesystem::path>& inputs);
+
 // Writes `bytes` to `path` atomically. Throws std::runtime_error with the path.
 void write_file_atomically(const std::filesystem::path& path, std::string_view bytes);
 
