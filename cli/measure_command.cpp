@@ -17,6 +17,7 @@
 
 #include "command.h"
 #include "exit_codes.h"
+#include "tactres/util/json_fields.h"
 #include "tactres/measure/chart_measure.h"
 #include "tactres/camera/image_io.h"
 #include "tactres/measure/measure.h"
@@ -246,7 +247,7 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
       m.usable = false;
       m.problem = e.what();
       try {
-        write_file_atomically(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
+        write_file_atomically(json_path, json_text(measurement_to_json(m, ctx)) + "\n");
       } catch (const std::exception& w) {  // the capture's own error stays the news
         o.problem += std::string("; and its JSON could not be written: ") + w.what();
         o.summary = fmt::format("{}: error: {}", o.design, o.problem);
@@ -260,7 +261,7 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   // show it as failed instead of dropping it.
   AtomicOutputSet outputs;
   ctx.chart = chart ? &*chart : nullptr;
-  if (!json_path.empty()) outputs.stage_bytes(json_path, measurement_to_json(m, ctx).dump(2) + "\n");
+  if (!json_path.empty()) outputs.stage_bytes(json_path, json_text(measurement_to_json(m, ctx)) + "\n");
   if (m.usable || (chart && !m.elements.empty())) {
     if (!csv_path.empty()) outputs.stage_bytes(csv_path, measurement_csv_header() + measurement_csv_rows(m, ctx));
     if (!overlay_path.empty())
@@ -279,15 +280,21 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   return o;
 }
 
+// Text for an XML attribute: markup escaped, bytes that are not UTF-8 and
+// the control characters XML 1.0 forbids even escaped replaced by U+FFFD
+// (a design label or file name may hold either).
 std::string xml_escape(const std::string& s) {
   std::string out;
-  for (char c : s) {
+  for (char c : valid_utf8(s)) {
     switch (c) {
       case '&': out += "&amp;"; break;
       case '<': out += "&lt;"; break;
       case '>': out += "&gt;"; break;
       case '"': out += "&quot;"; break;
-      default: out += c;
+      case '\t': out += "&#9;"; break;
+      case '\n': out += "&#10;"; break;
+      case '\r': out += "&#13;"; break;
+      default: out += static_cast<unsigned char>(c) < 0x20 ? std::string("\xEF\xBF\xBD") : std::string(1, c);
     }
   }
   return out;

@@ -8,6 +8,7 @@
 
 #include "command.h"
 #include "exit_codes.h"
+#include "tactres/util/json_fields.h"
 #include "tactres/camera/camera_model.h"
 #include "tactres/camera/image_io.h"
 #include "tactres/simulate/renderer.h"
@@ -96,7 +97,7 @@ Command simulate_command() {
               tj["layout"] = layout_source;
               AtomicOutputSet outputs;
               outputs.stage(out, [&](const std::filesystem::path& p) { write_image(p, r.image, r.bits); });
-              outputs.stage_bytes(truth_path, tj.dump(2) + "\n");
+              outputs.stage_bytes(truth_path, json_text(tj) + "\n");
               outputs.commit();
 
               // The reported (coarser) true limit, and when the light limits it.

@@ -1,3 +1,4 @@
+#include "tactres/util/json_fields.h"
 #include "tactres/reports/html_page.h"
 
 #include "reports_assets.h"  // generated from the assets folder at build time
@@ -119,7 +120,7 @@ std::string html_escape(std::string_view text) {
 }
 
 std::string script_safe_json(const nlohmann::json& j) {
-  const std::string s = j.dump();
+  const std::string s = json_text(j, -1);
   std::string out;
   out.reserve(s.size());
   for (char ch : s) {

@@ -1,3 +1,4 @@
+#include "tactres/util/json_fields.h"
 #include "tactres/targets/layout_json.h"
 
 #include <cmath>
@@ -251,7 +252,7 @@ TargetLayout read_layout_file(const std::filesystem::path& path) {
 }
 
 void write_layout_file(const std::filesystem::path& path, const TargetLayout& layout) {
-  write_file_atomically(path, layout_to_json(layout).dump(2) + "\n");
+  write_file_atomically(path, json_text(layout_to_json(layout)) + "\n");
 }
 
 }  // namespace tactres

@@ -8,6 +8,16 @@
 
 namespace tactres {
 
+std::string json_text(const nlohmann::json& j, int indent) {
+  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::string valid_utf8(const std::string& s) {
+  // nlohmann's replacing dump validates UTF-8 as it writes the string out;
+  // parsing that back gives the repaired bytes.
+  return nlohmann::json::parse(json_text(nlohmann::json(s), -1)).get<std::string>();
+}
+
 JsonFields::JsonFields(const nlohmann::json& object, std::string where)
     : object_(object), where_(std::move(where)) {
   if (!object_.is_object()) throw std::invalid_argument(where_ + " must be a JSON object");

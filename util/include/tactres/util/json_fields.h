@@ -12,6 +12,14 @@
 
 namespace tactres {
 
+// JSON text for a file: `indent` as nlohmann's dump, and bytes that are not
+// UTF-8 (a Latin-1 file name, a design label from a shell) replaced by
+// U+FFFD instead of throwing. Every tactres JSON output is written so.
+std::string json_text(const nlohmann::json& j, int indent = 2);
+
+// `s` with every byte sequence that is not UTF-8 replaced by U+FFFD.
+std::string valid_utf8(const std::string& s);
+
 class JsonFields {
  public:
   // `where` names the object in messages, e.g. "scene.effects[2]".
