@@ -247,7 +247,10 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
       m.usable = false;
       m.problem = e.what();
       try {
-        write_file_atomically(json_path, json_text(measurement_to_json(m, ctx)) + "\n");
+        AtomicOutputSet failed;  // and no earlier CSV or overlay of its name stays beside it
+        failed.stage_bytes(json_path, json_text(measurement_to_json(m, ctx)) + "\n");
+        for (const fs::path& p : {csv_path, overlay_path}) failed.stage_removal(p);
+        failed.commit();
       } catch (const std::exception& w) {  // the capture's own error stays the news
         o.problem += std::string("; and its JSON could not be written: ") + w.what();
         o.summary = fmt::format("{}: error: {}", o.design, o.problem);
@@ -266,6 +269,11 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
     if (!csv_path.empty()) outputs.stage_bytes(csv_path, measurement_csv_header() + measurement_csv_rows(m, ctx));
     if (!overlay_path.empty())
       outputs.stage(overlay_path, [&](const fs::path& p) { write_image(p, overlay_image(img.luminance, m)); });
+  } else {
+    // Nothing to tabulate or draw: an earlier run's CSV and overlay of this
+    // name go, or they would read as this capture's.
+    for (const fs::path& p : {csv_path, overlay_path})
+      if (!p.empty()) outputs.stage_removal(p);
   }
   outputs.commit();
   o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -97,32 +97,40 @@ void AtomicOutputSet::stage_bytes(const std::filesystem::path& final_path, std::
   stage(final_path, [&](const std::filesystem::path& temp) { write_bytes(temp, final_path, bytes); });
 }
 
+void AtomicOutputSet::stage_removal(const std::filesystem::path& path) { removals_.push_back(path); }
+
 void AtomicOutputSet::commit() {
   namespace fs = std::filesystem;
   if (committed_) return;
-  // The files the outputs replace are moved aside first, and put back if
-  // any rename fails: a failed set leaves the earlier results as they were.
-  std::vector<fs::path> aside(outputs_.size());
+  // The files the outputs replace, and the ones to remove, are moved aside
+  // first, and put back if any rename fails: a failed set leaves the
+  // earlier results as they were.
+  const size_t n = outputs_.size() + removals_.size();
+  const auto path_of = [&](size_t k) -> const fs::path& {
+    return k < outputs_.size() ? outputs_[k]->final_path() : removals_[k - outputs_.size()];
+  };
+  std::vector<fs::path> aside(n);
   size_t k = 0;
   try {
-    for (; k < outputs_.size(); ++k) {
-      const fs::path& final_path = outputs_[k]->final_path();
+    for (; k < n; ++k) {
+      const fs::path& final_path = path_of(k);
       std::error_code ec;
       if (fs::is_regular_file(final_path, ec)) {
         aside[k] = hidden_sibling(final_path, "old");
         fs::rename(final_path, aside[k], ec);
         if (ec) {
           aside[k].clear();
-          throw std::runtime_error("cannot write " + final_path.string() + ": " + ec.message());
+          throw std::runtime_error("cannot " + std::string(k < outputs_.size() ? "write " : "remove ") +
+                                   final_path.string() + ": " + ec.message());
         }
       }
-      outputs_[k]->commit();
+      if (k < outputs_.size()) outputs_[k]->commit();
     }
   } catch (...) {
     std::error_code ec;
-    for (size_t j = 0; j < k; ++j) fs::remove(outputs_[j]->final_path(), ec);
-    for (size_t j = 0; j <= k && j < outputs_.size(); ++j)
-      if (!aside[j].empty()) fs::rename(aside[j], outputs_[j]->final_path(), ec);
+    for (size_t j = 0; j < k && j < outputs_.size(); ++j) fs::remove(outputs_[j]->final_path(), ec);
+    for (size_t j = 0; j <= k && j < n; ++j)
+      if (!aside[j].empty()) fs::rename(aside[j], path_of(j), ec);
     throw;
   }
   std::error_code ec;

@@ -103,6 +103,31 @@ TEST_CASE("AtomicOutputSet: a failed set leaves the earlier results as they were
   CHECK(read_file(f.path / "r.json") == "new json");
 }
 
+TEST_CASE("AtomicOutputSet: a staged removal goes at commit, and stays when the commit fails") {
+  Folder f;
+  write_file_atomically(f.path / "r.json", "old json");
+  write_file_atomically(f.path / "r.csv", "old csv");
+  fs::create_directories(f.path / "ov.png" / "occupied");  // a folder: neither a file to remove nor to replace
+  {
+    AtomicOutputSet set;
+    set.stage_bytes(f.path / "r.json", "failed json");
+    set.stage_removal(f.path / "r.csv");
+    set.stage_bytes(f.path / "ov.png", "png");  // its rename fails
+    CHECK_THROWS_AS(set.commit(), std::runtime_error);
+  }
+  CHECK(read_file(f.path / "r.json") == "old json");
+  CHECK(read_file(f.path / "r.csv") == "old csv");
+  fs::remove_all(f.path / "ov.png");
+  AtomicOutputSet set;
+  set.stage_bytes(f.path / "r.json", "failed json");
+  set.stage_removal(f.path / "r.csv");
+  set.stage_removal(f.path / "never-written.png");  // nothing there: nothing to do
+  set.commit();
+  CHECK(read_file(f.path / "r.json") == "failed json");
+  CHECK_FALSE(fs::exists(f.path / "r.csv"));
+  CHECK(f.entries() == 1);
+}
+
 TEST_CASE("file_sha1: the SHA-1 of the bytes, lower-case hex") {
   Folder f;
   write_file_atomically(f.path / "abc.txt", "abc");

@@ -47,8 +47,12 @@ class AtomicOutputSet {
              const std::function<void(const std::filesystem::path& temp_path)>& write);
   // Stages `bytes` as the file `final_path`.
   void stage_bytes(const std::filesystem::path& final_path, std::string_view bytes);
+  // Removes `path`, if it is a file, at commit: an earlier output that this
+  // set does not replace and must not leave behind (an unusable capture's
+  // old CSV and overlay beside its new JSON). Put back if the commit fails.
+  void stage_removal(const std::filesystem::path& path);
   // Renames every staged output into place, over any earlier file of that
-  // name. Throws std::runtime_error naming the path on failure, having
+  // name, and removes the staged removals. Throws std::runtime_error naming the path on failure, having
   // removed the ones already renamed and put the earlier files back. A
   // second commit does nothing.
   void commit();
@@ -57,6 +61,7 @@ class AtomicOutputSet {
 
  private:
   std::vector<std::unique_ptr<AtomicOutput>> outputs_;
+  std::vector<std::filesystem::path> removals_;
   bool committed_ = false;
 };
 
