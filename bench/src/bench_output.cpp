@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <functional>
+#include <map>
 #include <utility>
 
 #include <fmt/format.h>
@@ -100,22 +101,68 @@ std::string bench_csv(const std::vector<BenchRow>& rows) {
   return out;
 }
 
+namespace {
+
+// The summary's columns, as bench.csv's: a cell for each setting's row.
+using SummaryColumn = std::pair<const char*, std::function<std::string(const BenchSummary&)>>;
+
+const std::vector<SummaryColumn>& summary_columns() {
+  static const std::vector<SummaryColumn> cols = {
+      {"setting", [](const BenchSummary& s) { return csv_cell(s.setting); }},
+      {"sweep", [](const BenchSummary& s) { return csv_cell(s.sweep); }},
+      {"captures", [](const BenchSummary& s) { return std::to_string(s.captures); }},
+      {"usable_captures", [](const BenchSummary& s) { return std::to_string(s.usable_captures); }},
+      {"orientations", [](const BenchSummary& s) { return std::to_string(s.orientations); }},
+      {"errors", [](const BenchSummary& s) { return std::to_string(s.errors); }},
+      {"missing_limits", [](const BenchSummary& s) { return std::to_string(s.missing_limits); }},
+      {"ms_median", [](const BenchSummary& s) { return num(s.ms_median, 3); }},
+      {"ms_mean", [](const BenchSummary& s) { return num(s.ms_mean, 3); }},
+      {"wall_ms_median", [](const BenchSummary& s) { return num(s.wall_ms_median, 3); }},
+      {"locate_fiducials_ms", [](const BenchSummary& s) { return num(s.locate_fiducials_ms, 3); }},
+      {"pose_ms", [](const BenchSummary& s) { return num(s.pose_ms, 3); }},
+      {"reference_patch_ms", [](const BenchSummary& s) { return num(s.reference_patch_ms, 3); }},
+      {"profiles_ms", [](const BenchSummary& s) { return num(s.profiles_ms, 3); }},
+      {"fits_ms", [](const BenchSummary& s) { return num(s.fits_ms, 3); }},
+      {"decide_ms", [](const BenchSummary& s) { return num(s.decide_ms, 3); }},
+      {"other_ms", [](const BenchSummary& s) { return num(s.other_ms, 3); }},
+      {"render_ms_median", [](const BenchSummary& s) { return num(s.render_ms_median, 3); }},
+      {"median_abs_error_pct", [](const BenchSummary& s) { return num(s.median_abs_error_pct, 4); }},
+      {"p95_abs_error_pct", [](const BenchSummary& s) { return num(s.p95_abs_error_pct, 4); }},
+      {"interpolated_rate", [](const BenchSummary& s) { return num(s.interpolated_rate, 4); }},
+      {"agreement_rate", [](const BenchSummary& s) { return num(s.agreement_rate, 4); }},
+      {"coverage_rate", [](const BenchSummary& s) { return num(s.coverage_rate, 4); }},
+      {"pareto", [](const BenchSummary& s) { return flag(s.pareto); }},
+  };
+  return cols;
+}
+
+std::string summary_row(const std::function<std::string(const SummaryColumn&)>& cell) {
+  std::string out;
+  for (const SummaryColumn& c : summary_columns()) {
+    if (!out.empty()) out += ',';
+    out += cell(c);
+  }
+  return out + '\n';
+}
+
+}  // namespace
+
 std::string bench_summary_csv(const BenchResult& result) {
-  std::string out =
-      "setting,sweep,captures,usable_captures,orientations,errors,missing_limits,ms_median,ms_mean,wall_ms_median,"
-      "locate_fiducials_ms,pose_ms,reference_patch_ms,profiles_ms,fits_ms,decide_ms,other_ms,render_ms_median,"
-      "median_abs_error_pct,p95_abs_error_pct,interpolated_rate,agreement_rate,coverage_rate,pareto\n";
-  for (const BenchSummary& s : result.summaries)
-    out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_cell(s.setting),
-                       s.sweep, s.captures, s.usable_captures, s.orientations, s.errors, s.missing_limits,
-                       num(s.ms_median, 3), num(s.ms_mean, 3), num(s.wall_ms_median, 3), num(s.locate_fiducials_ms, 3), num(s.pose_ms, 3),
-                       num(s.reference_patch_ms, 3), num(s.profiles_ms, 3), num(s.fits_ms, 3), num(s.decide_ms, 3),
-                       num(s.other_ms, 3), num(s.render_ms_median, 3), num(s.median_abs_error_pct, 4),
-                       num(s.p95_abs_error_pct, 4), num(s.interpolated_rate, 4), num(s.agreement_rate, 4), num(s.coverage_rate, 4),
-                       flag(s.pareto));
-  out += fmt::format("decode (floor),floor,{},,,,,{},{},{},,,,,,,,,,,,,0\n", result.decodes,
-                     num(result.decode_ms_median, 3), num(result.decode_ms_mean, 3),
-                     num(result.decode_wall_ms_median, 3));
+  std::string out = summary_row([](const SummaryColumn& c) { return std::string(c.first); });
+  for (const BenchSummary& s : result.summaries) out += summary_row([&](const SummaryColumn& c) { return c.second(s); });
+  // The decode floor: only its counts and times, in their columns.
+  const std::map<std::string, std::string> floor = {
+      {"setting", "decode (floor)"},
+      {"sweep", "floor"},
+      {"captures", std::to_string(result.decodes)},
+      {"ms_median", num(result.decode_ms_median, 3)},
+      {"ms_mean", num(result.decode_ms_mean, 3)},
+      {"wall_ms_median", num(result.decode_wall_ms_median, 3)},
+      {"pareto", "0"}};
+  out += summary_row([&](const SummaryColumn& c) {
+    const auto it = floor.find(c.first);
+    return it == floor.end() ? std::string() : it->second;
+  });
   return out;
 }
 

@@ -297,6 +297,10 @@ TEST_CASE("bench: a tiny bench writes the documented CSV columns with finite num
   REQUIRE(summary.size() == 3);  // header, fast, decode floor
   CHECK(csv_fields(summary[1])[0] == "fast");
   CHECK(csv_fields(summary[2])[0] == "decode (floor)");
+  // Every row has the header's columns (the floor row was one short).
+  const std::vector<std::string> summary_header = csv_fields(summary[0]);
+  for (const std::string& line : summary) CHECK(csv_fields(line).size() == summary_header.size());
+  CHECK(csv_fields(summary[2]).back() == "0");  // the floor is no Pareto setting, in the pareto column
   const std::string html = read_file(dir.path / "bench.html");
   CHECK(html.find("<canvas") != std::string::npos);
   CHECK(html.find("data-charts-expected=\"3\"") != std::string::npos);
