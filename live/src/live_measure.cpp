@@ -62,7 +62,14 @@ LiveFrameResult LiveMeasurer::measure(const Frame& frame) {
         level_at_refit_ > 0 && std::abs(level / level_at_refit_ - 1) > options_.light_change;
     const bool refit = !options_.tracking || frames_since_refit_ >= options_.refit_every || light_changed;
     const auto t0 = std::chrono::steady_clock::now();
-    r = options_.chart ? measure_chart_frame(*frame.image, refit) : measure_layout(*frame.image, refit);
+    try {
+      r = options_.chart ? measure_chart_frame(*frame.image, refit) : measure_layout(*frame.image, refit);
+    } catch (const std::exception& e) {
+      // A frame the analysis refuses outright (another size than the
+      // camera model's) is a row with its problem; the sequence goes on.
+      r = LiveFrameResult{};
+      r.problem = e.what();
+    }
     r.analysis_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (r.refit) {
       frames_since_refit_ = 0;

@@ -94,3 +94,18 @@ TEST_CASE("live measurer: a frame without pixels is a row with its problem, and 
   CHECK_FALSE(next.tracked);
   CHECK(next.refit);
 }
+
+TEST_CASE("live measurer: a frame of another size than the camera model's is a row with its problem") {
+  LiveOptions o;
+  o.measure = MeasureOptions::for_preset(Preset::fast);
+  LiveMeasurer live(o, &default_layout(), &wide_angle_camera());
+  CHECK(live.measure(frame_of(0, 0.8)).measured);
+  Frame small = frame_of(1, 0.8);
+  small.image->luminance = cv::Mat(small.image->luminance, cv::Rect(0, 0, 640, 360)).clone();
+  small.image->width = 640;
+  small.image->height = 360;
+  const LiveFrameResult r = live.measure(small);
+  CHECK_FALSE(r.measured);
+  CHECK(r.problem.find("imager but the image is 640x360") != std::string::npos);
+  CHECK(live.measure(frame_of(2, 0.8)).measured);  // the sequence goes on
+}
