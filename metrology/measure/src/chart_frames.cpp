@@ -337,6 +337,11 @@ PlaneField fit_plane_field(const std::vector<std::pair<Vec2, double>>& samples) 
 
 double ScaleField::at(Vec2 p) const { return std::exp(log_scale.at(p)); }
 
+double ScaleField::at_or(Vec2 p, double own_px_per_mm) const {
+  const double px_per_mm = at(p);
+  return std::abs(std::log(px_per_mm / own_px_per_mm)) <= kMaxLogDeviation ? px_per_mm : own_px_per_mm;
+}
+
 ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples) {
   std::vector<std::pair<Vec2, double>> logs;
   for (const auto& [p, px_per_mm] : samples) logs.push_back({p, std::log(px_per_mm)});

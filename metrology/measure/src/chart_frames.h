@@ -134,6 +134,15 @@ struct ScaleField {
   bool valid = false;
   PlaneField log_scale;
   double at(Vec2 p) const;
+  // The field's px/mm at p, or `own_px_per_mm` (a pattern's own period's)
+  // where the field strays from it by more than kMaxLogDeviation. Far from
+  // its samples a plane's tilt is unconstrained (samples along one column:
+  // a JPEG copy of dev_14 put group 4's V patterns at 0.07 px per bar,
+  // against their own 12). Blur overstates a fine pattern's binarised
+  // period by up to 2/3 of a step of the series (8 %); the field corrects
+  // that and a lens's slow change of scale, not a quarter.
+  static constexpr double kMaxLogDeviation = 0.22;
+  double at_or(Vec2 p, double own_px_per_mm) const;
 };
 ScaleField fit_scale_field(const std::vector<std::pair<Vec2, double>>& samples);
 

@@ -147,3 +147,19 @@ TEST_CASE("shared_shifts_px: no shift where the patterns are in place, or show n
 
 }  // namespace
 }  // namespace tactres::chart
+
+TEST_CASE("scale field: a pattern far from samples along one column keeps its own scale") {
+  // Eight samples along x = 100..103 px, their scale falling gently down
+  // the column, with a little noise across it: the plane's tilt across x
+  // is set by that noise alone.
+  std::vector<std::pair<tactres::Vec2, double>> samples;
+  for (int k = 0; k < 8; ++k)
+    samples.push_back({{100.0 + (k % 4), 50.0 + 60 * k}, 20.0 * (1 - 0.002 * k) * (k % 2 ? 1.01 : 0.99)});
+  const tactres::chart::ScaleField f = tactres::chart::fit_scale_field(samples);
+  REQUIRE(f.valid);
+  CHECK(f.at_or({101, 200}, 19.5) == doctest::Approx(f.at({101, 200})));  // among the samples: the field
+  CHECK(f.at({101, 200}) == doctest::Approx(19.9).epsilon(0.02));
+  const tactres::Vec2 far{600, 200};
+  CHECK(std::abs(std::log(f.at(far) / 20.0)) > 1);  // the plane has strayed by e times or more
+  CHECK(f.at_or(far, 19.0) == 19.0);                // the pattern's own scale stands
+}

@@ -72,7 +72,7 @@ std::vector<PatternFrame> pattern_frames(const ChartDetection& D, const std::vec
   if (!field[1].valid) field[1] = field[0];
   for (size_t i = 0; i < refs.size(); ++i) {
     const ScaleField& s = field[refs[i].orientation == BarOrientation::vertical_bars];
-    if (s.valid) frames[i].px_per_mm = s.at(frames[i].center_px);
+    if (s.valid) frames[i].px_per_mm = s.at_or(frames[i].center_px, frames[i].px_per_mm);
   }
   return frames;
 }
