@@ -96,13 +96,18 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
   ref.signature = Signature::albedo;
   std::vector<LevelStep> steps[2];  // [vertical bars]
   std::vector<std::string> from_plateaus;
+  int candidates = 0, clipped = 0;  // coarse patterns in full view, and those of them clipped
   for (size_t i = 0; i < jobs.size(); ++i) {
     const ElementResult& e = jobs[i].element;
     std::vector<LevelStep>& s = steps[e.orientation == BarOrientation::vertical_bars];
     const SampledProfile& p = profiles[i].front();
     if (s.size() >= 3 || e.px_per_bar < 3) continue;
-    if (D.patterns[refs[i].pattern].predicted || refs[i].lone || !p.in_view || p.pixels_clipped > p.pixels_used / 50)
+    if (D.patterns[refs[i].pattern].predicted || refs[i].lone || !p.in_view) continue;
+    ++candidates;
+    if (p.pixels_clipped > p.pixels_used / 50) {
+      ++clipped;
       continue;
+    }
     ProfileFitOptions fo;
     fo.fit_contrast = true;
     fo.fit_shape = mo.fit_psf_shape;  // a fixed Gaussian would put a heavy-tailed PSF's low-frequency loss into the level step
@@ -128,7 +133,18 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
     ref.step(vertical ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars) = s[s.size() / 2];
   }
   const bool have_h = !steps[0].empty(), have_v = !steps[1].empty();
-  if (!have_h && !have_v) return false;
+  if (!have_h && !have_v) {
+    if (note)
+      *note = clipped > 0
+                  ? fmt::format("the chart's level step cannot be measured: {} of the {} coarse pattern(s) in full "
+                                "view with 3 or more pixels per bar have more than 2 % of their pixels clipped (at "
+                                "black or at the saturation level){}; expose so that neither the bars nor the ground "
+                                "clip (a JPEG's ringing can push dark bars to 0: export without it, or lift black)",
+                                clipped, candidates, clipped < candidates ? ", and the others show no bars to read" : "")
+                  : "the chart's level step cannot be measured: no element in full view has 3 or more pixels per bar "
+                    "with visible bars; frame a coarser group or bring the chart into focus";
+    return false;
+  }
   if (!have_h) ref.horizontal_bars = {ref.vertical_bars.contrast, ref.vertical_bars.contrast_sigma, 0};
   if (!have_v) ref.vertical_bars = {ref.horizontal_bars.contrast, ref.horizontal_bars.contrast_sigma, 0};
   ref.usable = true;

@@ -29,7 +29,8 @@ std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_wid
 
 // The level step per orientation, as the reference patch gives it in layout
 // mode (see chart_level_step.cpp). False if neither orientation has one.
-// `note` says where a step was taken from the plateaus instead of the fit.
+// `note` says where a step was taken from the plateaus instead of the fit
+// or, when false, why there is no step (for the measurement's problem).
 bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& refs,
                        const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
                        const MeasureOptions& mo, ReferenceResult& ref, std::string* note);

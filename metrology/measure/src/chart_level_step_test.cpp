@@ -64,3 +64,34 @@ TEST_CASE("chart level step: no plateaus, no step") {
   for (int& n : e.count) n = 0;
   CHECK_FALSE(chart::plateau_level_step(e, 1.0));
 }
+
+TEST_CASE("chart level step: coarse patterns that all clip are refused, and the problem says so") {
+  ChartDetection D;
+  D.patterns.resize(2);
+  std::vector<chart::PatternRef> refs;
+  std::vector<ElementJob> jobs;
+  std::vector<std::vector<SampledProfile>> profiles;
+  for (int k = 0; k < 2; ++k) {
+    const auto o = k ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars;
+    refs.push_back({k, o, 4, 1, 16.0});
+    ElementJob job;
+    job.element = ElementResult::of(4, 1, o, 16.0, 10.0);
+    jobs.push_back(job);
+    SampledProfile p;
+    p.data = three_bars(-0.9, 1.0, 0.1, 0.002, 1);
+    p.in_view = true;
+    p.pixels_used = 1000;
+    p.pixels_clipped = 300;  // dark bars pushed to 0
+    profiles.push_back({p});
+  }
+  ReferenceResult ref;
+  std::string note;
+  CHECK_FALSE(chart::chart_level_steps(D, refs, jobs, profiles, MeasureOptions{}, ref, &note));
+  CHECK(note.find("2 of the 2 coarse pattern(s)") != std::string::npos);
+  CHECK(note.find("clipped") != std::string::npos);
+  // Unclipped, the same patterns give the step.
+  for (auto& p : profiles) p.front().pixels_clipped = 0;
+  note.clear();
+  CHECK(chart::chart_level_steps(D, refs, jobs, profiles, MeasureOptions{}, ref, &note));
+  CHECK(ref.horizontal_bars.contrast == doctest::Approx(-0.9).epsilon(0.05));
+}

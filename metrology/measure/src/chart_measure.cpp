@@ -423,15 +423,13 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   t.restart();
   std::string step_note;
   const bool scaled = chart::chart_level_steps(D, refs, jobs, profiles, mo, M.reference, &step_note);
-  if (!step_note.empty()) M.warnings.push_back(step_note);
   M.stage_seconds.push_back({"reference_patch", t.seconds()});
   set_nyquist(frames, D, M);
   if (!scaled) {
-    M.problem =
-        "the chart's level step cannot be measured: no element in full view has 3 or more pixels per bar with "
-        "visible bars; frame a coarser group or bring the chart into focus";
+    M.problem = step_note;
     return out;
   }
+  if (!step_note.empty()) M.warnings.push_back(step_note);
 
   std::vector<size_t> graded;
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false, true}, M.elements, &graded)});
