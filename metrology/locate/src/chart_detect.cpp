@@ -335,44 +335,61 @@ WaysAnswer anchor_among_ways(ChartDetection& D, const std::vector<ChartElement>&
   return WaysAnswer::chosen;
 }
 
+// The absolute index of relative index 0 (D.largest_index) from what the
+// chart shows, the arrangement and its printed numbers, and what fixed it.
+void anchor_from_chart(ChartDetection& D, const std::vector<ChartElement>& kept,
+                       const std::vector<ChartElement>& partial, const ScaleField& field, const cv::Mat& img) {
+  D.largest_index = 0;
+  D.anchor = ChartAnchor::none;
+  const std::string relative =
+      "groups and elements are relative to the largest element found, which is called group 0 element 1, and "
+      "lp/mm are relative to its frequency; give --largest-group or --px-per-mm for absolute values";
+  D.elements = kept;
+  std::vector<ChartDetection::Arrangement> ways;
+  anchor_by_arrangement(D, kept, field, img, relative, ways);
+  if (D.anchor != ChartAnchor::none) return;
+  // Another typeface than the generator's: read the numbers by OCR.
+  std::string note;
+  std::string ways_note;
+  NumberImages number_images;  // shared by every reading below
+  if (!ways.empty()) {
+    const WaysAnswer answer = anchor_among_ways(D, kept, partial, img, ways, ways_note, number_images);
+    if (answer == WaysAnswer::chosen) return;
+    // Numbers that fix the group differently under two ways contradict
+    // each other; read without a phase they would not be more right.
+    if (answer == WaysAnswer::contradictory) {
+      D.anchor_description += "; printed numbers: " + ways_note;
+      return;
+    }
+    ways_note += "; read without the arrangement, ";
+  }
+  const std::optional<int> phase =
+      D.arrangement.recognised ? std::optional<int>(D.arrangement.phase) : std::nullopt;
+  if (anchor_by_printed_numbers(D, kept, partial, img, phase, note, number_images)) {
+    D.anchor = ChartAnchor::printed_numbers;
+    D.anchor_description = "printed numbers: " + note;
+  } else {
+    D.anchor_description += "; printed numbers: " + ways_note + note;
+  }
+}
+
 // The absolute index of relative index 0 (D.largest_index), from the
-// options or else the arrangement, and what fixed it.
+// options or else the chart itself, and what fixed it. An option the chart
+// contradicts still stands, and ChartDetection::anchor_conflict says so.
 void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const std::vector<ChartElement>& partial,
             const ScaleField& field, const ChartDetectOptions& options, const cv::Mat& img) {
   if (!anchor_by_options(D, kept.front().period_px, options)) {
-    D.largest_index = 0;
-    D.anchor = ChartAnchor::none;
-    const std::string relative =
-        "groups and elements are relative to the largest element found, which is called group 0 element 1, and "
-        "lp/mm are relative to its frequency; give --largest-group or --px-per-mm for absolute values";
-    D.elements = kept;
-    std::vector<ChartDetection::Arrangement> ways;
-    anchor_by_arrangement(D, kept, field, img, relative, ways);
-    if (D.anchor != ChartAnchor::none) return;
-    // Another typeface than the generator's: read the numbers by OCR.
-    std::string note;
-    std::string ways_note;
-    NumberImages number_images;  // shared by every reading below
-    if (!ways.empty()) {
-      const WaysAnswer answer = anchor_among_ways(D, kept, partial, img, ways, ways_note, number_images);
-      if (answer == WaysAnswer::chosen) return;
-      // Numbers that fix the group differently under two ways contradict
-      // each other; read without a phase they would not be more right.
-      if (answer == WaysAnswer::contradictory) {
-        D.anchor_description += "; printed numbers: " + ways_note;
-        return;
-      }
-      ways_note += "; read without the arrangement, ";
-    }
-    const std::optional<int> phase =
-        D.arrangement.recognised ? std::optional<int>(D.arrangement.phase) : std::nullopt;
-    if (anchor_by_printed_numbers(D, kept, partial, img, phase, note, number_images)) {
-      D.anchor = ChartAnchor::printed_numbers;
-      D.anchor_description = "printed numbers: " + note;
-    } else {
-      D.anchor_description += "; printed numbers: " + ways_note + note;
-    }
+    anchor_from_chart(D, kept, partial, field, img);
+    return;
   }
+  ChartDetection shown = D;
+  anchor_from_chart(shown, kept, partial, field, img);
+  if (shown.anchor == ChartAnchor::none || shown.largest_index == D.largest_index) return;
+  const auto name = [](int n) { return fmt::format("G{}E{}", floor_div6(n), n - 6 * floor_div6(n) + 1); };
+  D.anchor_conflict = fmt::format(
+      "{} makes the largest element found {}, but the chart itself says {} ({}); the option was used: check it",
+      options.px_per_mm ? "--px-per-mm" : "--largest-group", name(D.largest_index), name(shown.largest_index),
+      shown.anchor_description);
 }
 
 // ChartDetection::single_pattern: the one large pattern of either polarity,

@@ -77,6 +77,23 @@ TEST_CASE("chart detection: positive and negative, rotated and mirrored, anchore
   }
 }
 
+TEST_CASE("chart detection: an option the chart's own labels contradict stands, with the conflict said") {
+  const cv::Mat img = chart_image(false);
+  ChartDetectOptions right;
+  right.largest_group = 0;
+  const ChartDetection agreed = detect_chart(img, right);
+  REQUIRE(agreed.found);
+  CHECK(agreed.anchor_conflict.empty());
+  ChartDetectOptions wrong;
+  wrong.largest_group = 1;  // one group off what the chart's labels say
+  const ChartDetection d = detect_chart(img, wrong);
+  REQUIRE(d.found);
+  CHECK(d.anchor == ChartAnchor::largest_group);
+  CHECK(d.elements.front().group == 1);  // the option stands
+  CHECK(d.anchor_conflict.find("makes the largest element found G1E1, but the chart itself says G0E1") !=
+        std::string::npos);
+}
+
 TEST_CASE("chart detection: --px-per-mm anchors the group, no anchor keeps indices relative") {
   const cv::Mat img = chart_image(false);
   ChartDetectOptions o;

@@ -430,6 +430,7 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
     return out;
   }
   if (!step_note.empty()) M.warnings.push_back(step_note);
+  if (!D.anchor_conflict.empty()) M.warnings.push_back(D.anchor_conflict);
 
   std::vector<size_t> graded;
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false, true}, M.elements, &graded)});

@@ -110,6 +110,10 @@ struct ChartDetection {
   bool light_bars = false;          // negative chart
   ChartAnchor anchor = ChartAnchor::none;
   std::string anchor_description;   // what the anchor was, in words
+  // When --largest-group or --px-per-mm fixed the anchor and the chart's
+  // own arrangement and printed numbers fix another: both, in words (a
+  // warning; the option stands). Empty otherwise.
+  std::string anchor_conflict;
   int largest_index = 0;            // absolute series index 6 g + e - 1 of relative index 0
   int unpaired_patterns = 0;        // patterns found without a partner (measured only in `partial`)
   double separation_periods = 3.5;  // an element's H-to-V centre distance in its periods (the chart's median)
