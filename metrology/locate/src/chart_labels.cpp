@@ -14,6 +14,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 
 #include <fmt/format.h>
@@ -49,12 +50,51 @@ Vec2 element_center(const ChartDetection& D, const ChartElement& e) {
   return 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
 }
 
-// One reader per thread: Tesseract's initialisation costs tens of ms.
-LabelReader* thread_reader(std::string& error) {
-  thread_local LabelReaderOrError made = LabelReader::create();
-  error = made.error;
-  return made.reader.get();
-}
+// Readers are made once and lent out, one per caller at a time:
+// Tesseract's initialisation costs tens of ms, and a reader is not
+// thread-safe. A pool, not one reader per thread: a worker thread of a
+// batch's pool ends after Tesseract's own statics are gone, and its reader
+// then made Tesseract print "WARNING! LEAK!" at every batch's exit.
+class ReaderLease {
+ public:
+  ReaderLease() {
+    std::lock_guard<std::mutex> lock(pool().mutex);
+    if (!pool().idle.empty()) {
+      reader_ = std::move(pool().idle.back());
+      pool().idle.pop_back();
+      return;
+    }
+    LabelReaderOrError made = LabelReader::create();
+    reader_ = std::move(made.reader);
+    error_ = made.error;
+  }
+  ~ReaderLease() {
+    if (!reader_) return;
+    std::lock_guard<std::mutex> lock(pool().mutex);
+    pool().idle.push_back(std::move(reader_));
+  }
+  ReaderLease(const ReaderLease&) = delete;
+  ReaderLease& operator=(const ReaderLease&) = delete;
+  LabelReader* get() const { return reader_.get(); }
+  const std::string& error() const { return error_; }
+
+ private:
+  // Its first reader is made in its constructor: Tesseract makes its own
+  // statics then, so they are complete before the pool is, and outlive it.
+  struct Pool {
+    std::mutex mutex;
+    std::vector<std::unique_ptr<LabelReader>> idle;
+    Pool() {
+      if (LabelReaderOrError made = LabelReader::create(); made.reader) idle.push_back(std::move(made.reader));
+    }
+  };
+  static Pool& pool() {
+    static Pool p;
+    return p;
+  }
+  std::unique_ptr<LabelReader> reader_;
+  std::string error_;
+};
 
 struct Label {
   Vec2 center_px;
@@ -243,10 +283,10 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
                      const std::vector<ChartElement>& partial, NumberSite& site, std::optional<int> phase,
                      std::string& note, int min_readings = 1) {
   const cv::Mat& img = site.img;
-  std::string error;
-  LabelReader* reader = thread_reader(error);
+  const ReaderLease lease;
+  LabelReader* reader = lease.get();
   if (!reader) {
-    note = "the printed numbers cannot be read: " + error;
+    note = "the printed numbers cannot be read: " + lease.error();
     return false;
   }
   if (phase) {
