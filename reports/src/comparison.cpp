@@ -312,9 +312,12 @@ Comparison compare_designs(std::vector<MeasurementRecord> measurements, Measurem
         reference.path.string(), reference.problem));
 
   std::vector<const MeasurementRecord*> all{&reference};
-  for (const MeasurementRecord& m : measurements) all.push_back(&m);
-  check_same_target(all);
-  check_same_criterion(all);
+  for (const MeasurementRecord& m : measurements)
+    if (m.readable) all.push_back(&m);
+  if (all.size() > 1) {
+    check_same_target(all);
+    check_same_criterion(all);
+  }
 
   Comparison c;
   c.threshold = reference.threshold;
@@ -347,7 +350,8 @@ Comparison compare_designs(std::vector<MeasurementRecord> measurements, Measurem
     for (size_t i : row.presses) {
       const MeasurementRecord& m = measurements[i];
       if (m.usable) usable.push_back(&m);
-      else row.problems.push_back(m.path.filename().string() + ": " + m.problem);
+      else  // why a file could not be read names it already
+        row.problems.push_back(m.readable ? m.path.filename().string() + ": " + m.problem : m.problem);
     }
     row.n_failed = int(row.presses.size() - usable.size());
     row.status = usable.empty() ? RowStatus::failed : row.n_failed > 0 ? RowStatus::partly_failed : RowStatus::ok;
@@ -406,8 +410,21 @@ Comparison load_comparison(const std::vector<fs::path>& measurement_files, const
         reference_file.string()));
 
   MeasurementRecord reference = read_measurement_file(reference_file);
+  // One design file that cannot be read is a failed row, not the end of
+  // the report (the reference, which every percentage needs, must read).
   std::vector<MeasurementRecord> records;
-  for (const fs::path& f : files) records.push_back(read_measurement_file(f));
+  for (const fs::path& f : files) {
+    try {
+      records.push_back(read_measurement_file(f));
+    } catch (const std::exception& e) {
+      MeasurementRecord unreadable;
+      unreadable.path = f;
+      unreadable.design = f.stem().string();
+      unreadable.readable = false;
+      unreadable.problem = e.what();
+      records.push_back(std::move(unreadable));
+    }
+  }
   return compare_designs(std::move(records), std::move(reference));
 }
 

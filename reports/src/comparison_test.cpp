@@ -284,12 +284,24 @@ TEST_CASE("load_comparison: files, the reference skipped in a glob, and refusals
   CHECK(refusal([&] { load_comparison({a, dir.path / "." / "a.json"}, ref); }).find("is given twice") !=
         std::string::npos);
 
+  // A design file that cannot be read is a failed row; the others stand.
   const fs::path broken = dir.write("broken.json", "{\"schema\": ");
-  const std::string m = refusal([&] { load_comparison({a, broken}, ref); });
+  const Comparison with_bad = load_comparison({a, broken, dir.path / "nope.json", b}, ref);
+  REQUIRE(with_bad.designs.size() == 4);
+  CHECK(row(with_bad, "A").status == RowStatus::ok);
+  CHECK(row(with_bad, "B").status == RowStatus::ok);
+  CHECK(*row(with_bad, "B").horizontal.pct_of_reference == doctest::Approx(50.0));
+  const DesignRow& bad = row(with_bad, "broken");
+  CHECK(bad.status == RowStatus::failed);
+  REQUIRE(bad.problems.size() == 1);
+  CHECK(bad.problems[0].find(broken.string() + " is not valid JSON") == 0);
+  CHECK(row(with_bad, "nope").status == RowStatus::failed);
+  // An unreadable reference is refused: every percentage needs it.
+  const std::string m = refusal([&] { load_comparison({a}, broken); });
   CHECK(m.find(broken.string()) != std::string::npos);
   try {
-    load_comparison({a, dir.path / "nope.json"}, ref);
-    FAIL("no error for a missing file");
+    load_comparison({a}, dir.path / "nope.json");
+    FAIL("no error for a missing reference");
   } catch (const std::runtime_error& e) {
     CHECK(std::string(e.what()).find("nope.json") != std::string::npos);
   }

@@ -73,14 +73,29 @@ grep -q '"threshold": 0.2' "$work/T1C3_strict.json" || fail "test setup: the thr
 expect_refusal "mixed criteria" "mixed criteria" "$data/T1C1.json" "$work/T1C3_strict.json" \
   --reference "$data/cmos.json" "${out_args[@]}"
 
-expect_refusal "unreadable JSON" "$work/nope.json" "$data/T1C1.json" "$work/nope.json" --reference "$data/cmos.json" \
-  "${out_args[@]}"
+# A design file that cannot be read is a failed row; the other designs are
+# still reported (one bad file never stops the others).
 head -c 500 "$data/T1C1.json" >"$work/truncated.json"
-expect_refusal "truncated JSON" "$work/truncated.json is not valid JSON" "$data/T1C1.json" "$work/truncated.json" \
-  --reference "$data/cmos.json" "${out_args[@]}"
 echo '{"schema": "tactres.target/1"}' >"$work/layout_not_measurement.json"
-expect_refusal "not a measurement" "$work/layout_not_measurement.json is not a tactres measurement" "$work/layout_not_measurement.json" \
-  --reference "$data/cmos.json" "${out_args[@]}"
+mkdir -p "$work/a_folder.json" "$work/rows"
+"$tactres" report "$data/T1C1.json" "$work/nope.json" "$work/truncated.json" "$work/layout_not_measurement.json" \
+  "$work/a_folder.json" --reference "$data/cmos.json" --csv "$work/rows/r.csv" --html "$work/rows/r.html" \
+  >"$work/stdout" 2>"$work/stderr"
+rc=$?
+[ "$rc" -eq 0 ] || fail "bad design files: exit $rc, expected 0: $(cat "$work/stderr")"
+grep -q '^design,T1C1,1,0,ok,' "$work/rows/r.csv" || fail "bad design files: the good design is not reported"
+for stem in nope truncated layout_not_measurement a_folder; do
+  grep -q "^design,$stem,0,1,failed," "$work/rows/r.csv" || fail "bad design files: $stem is not a failed row"
+done
+grep -q "truncated *failed: $work/truncated.json is not valid JSON" "$work/stdout" ||
+  fail "bad design files: the truncated file's reason is not shown: $(cat "$work/stdout")"
+grep -q "a_folder *failed: cannot read $work/a_folder.json: it is a folder" "$work/stdout" ||
+  fail "bad design files: the folder's reason is not shown"
+grep -q "5 design(s) from 5 measurement(s).*; 4 failed" "$work/stdout" || fail "bad design files: the count line"
+echo "ok: unreadable design files are failed rows"
+# An unreadable reference is refused: every percentage needs it.
+expect_refusal "truncated reference" "$work/truncated.json is not valid JSON" "$data/T1C1.json" \
+  --reference "$work/truncated.json" "${out_args[@]}"
 expect_refusal "failed reference" "is a failed measurement" "$data/T1C1.json" --reference "$data/T2C4.json" \
   "${out_args[@]}"
 expect_refusal "file given twice" "given twice" "$data/T1C1.json" "$data/../report/T1C1.json" \

@@ -191,6 +191,9 @@ void refuse_colliding_outputs(const std::vector<std::filesystem::path>& outputs,
 }
 
 std::string read_file(const std::filesystem::path& path) {
+  // A folder opens as a stream that reads as empty: say what it is.
+  if (std::error_code ec; std::filesystem::is_directory(path, ec))
+    throw std::runtime_error("cannot read " + path.string() + ": it is a folder, not a file");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw std::runtime_error("cannot read " + path.string() + ": no such file or not readable");
   std::ostringstream ss;

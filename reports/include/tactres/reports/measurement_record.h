@@ -61,6 +61,11 @@ struct MeasurementRecord {
   std::string preset;             // empty when absent
   bool usable = false;
   std::string problem;            // why not usable (non-empty when !usable)
+  // False for a file that could not be read as a measurement at all (not
+  // JSON, truncated, another schema): only path, design (the file's stem)
+  // and problem are set, and it takes no part in the layout and criterion
+  // checks.
+  bool readable = true;
   double threshold = 0.0;         // criterion: m(f) at the limit
   double significance_z = 0.0;    // criterion: m - z * m_sigma > 0
   // Camera sampling limit at the target plane; 0 when measure could not
