@@ -74,6 +74,19 @@ TEST_CASE("gap dips: a gap filled to the bars' level is flat while the other dip
   CHECK_FALSE(gap_dips(triplet(0.2, gaps, 0.8, 0.01, false), kBarMm, 0.9).flat_gap());
 }
 
+TEST_CASE("gap dips: a gap dipping significantly but under a tenth of the other is flat") {
+  // Small bin errors (a JPEG's smoothing): the first gap dips 0.03, many
+  // sigma, while the second dips 0.6.
+  const double gaps[2] = {0.23, 0.8};
+  const GapDips g = gap_dips(triplet(0.2, gaps, 0.8, 0.002, false), kBarMm, -0.9);
+  REQUIRE(g.valid);
+  CHECK(g.dip[0] > 5 * g.sigma[0]);
+  CHECK(g.flat_gap() == std::optional<int>(0));
+  // A fifth of the other's: a gap, as a reader sees one (dev_04's G6E5 H).
+  const double fifth[2] = {0.32, 0.8};
+  CHECK_FALSE(gap_dips(triplet(0.2, fifth, 0.8, 0.002, false), kBarMm, -0.9).flat_gap());
+}
+
 TEST_CASE("gap dips: the windows follow a triplet placed a third of a bar off") {
   const double gaps[2] = {0.8, 0.8};
   ProfileData d = triplet(0.2, gaps, 0.8, 0.01, false);

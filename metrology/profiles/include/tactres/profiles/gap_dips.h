@@ -32,10 +32,11 @@ struct GapDips {
   // in the profile's value units; 0 when neither side holds one.
   double ground = 0;
 
-  // The gap (0 or 1) that shows no dip (under 2 sigma) while the other
-  // clearly does (over 5 sigma, so the data could show one there), if
-  // any. Two shallow gaps are the model's business (a blurred element
-  // reads a low m), not this check's.
+  // The gap (0 or 1) that shows no dip (under 2 sigma, or under
+  // kMinGapDipRatio of the other's) while the other clearly does (over 5
+  // sigma, so the data could show one there), if any. Two shallow gaps are the model's business (a
+  // blurred element reads a low m), not this check's.
+  static constexpr double kMinGapDipRatio = 0.1;
   std::optional<int> flat_gap() const;
 
   // Both gaps dip clearly (each over 5 sigma): the data show all three
