@@ -1,4 +1,3 @@
-#include "tactres/util/json_fields.h"
 #include "tactres/targets/layout_json.h"
 
 #include <cmath>
@@ -7,7 +6,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "tactres/targets/usaf_series.h"
 #include "tactres/util/atomic_file.h"
+#include "tactres/util/json_fields.h"
 
 namespace tactres {
 
@@ -139,6 +140,31 @@ json layout_to_json(const TargetLayout& layout) {
   return j;
 }
 
+// An element's numbers must agree with each other and with its bars: a
+// layout edited by hand (lp_per_mm 3 beside bar_width_mm 0.5) would be
+// measured and reported under a frequency its bars do not have.
+void check_element(const ElementLayout& e, const TargetLayout& L, const std::string& where) {
+  const double series = usaf_lp_per_mm(e.group, e.element);
+  if (std::abs(e.lp_per_mm / series - 1) > 1e-3)
+    throw std::invalid_argument(fmt::format("{}.lp_per_mm {:g} is not group {} element {}'s {:.4g} lp/mm "
+                                            "(2^(group + (element - 1) / 6)): regenerate the layout",
+                                            where, e.lp_per_mm, e.group, e.element, series));
+  if (std::abs(e.bar_width_mm * 2 * e.lp_per_mm - 1) > 1e-3)
+    throw std::invalid_argument(fmt::format("{}.bar_width_mm {:g} is not half a line pair at {:g} lp/mm ({:g} mm)",
+                                            where, e.bar_width_mm, e.lp_per_mm, 0.5 / e.lp_per_mm));
+  for (int b = 0; b < 3; ++b) {
+    const RectMm& r = e.bars_mm[b];
+    const double narrow = std::min(r.x1 - r.x0, r.y1 - r.y0);
+    if (std::abs(narrow / e.bar_width_mm - 1) > 0.01)
+      throw std::invalid_argument(fmt::format("{}.bars_mm[{}] is {:g} mm wide, not the element's bar width {:g} mm",
+                                              where, b, narrow, e.bar_width_mm));
+    const double slack = 1e-6 * std::max(L.width_mm, L.height_mm);
+    if (r.x0 < -slack || r.y0 < -slack || r.x1 > L.width_mm + slack || r.y1 > L.height_mm + slack)
+      throw std::invalid_argument(fmt::format("{}.bars_mm[{}] lies outside the target's size_mm [{:g}, {:g}]", where,
+                                              b, L.width_mm, L.height_mm));
+  }
+}
+
 TargetLayout layout_from_json(const json& j) {
   const std::string top = "layout";
   const std::string schema = string_field(j, "schema", top);
@@ -149,6 +175,10 @@ TargetLayout layout_from_json(const json& j) {
   if (string_field(j, "units", top) != "mm")
     throw std::invalid_argument("layout.units must be \"mm\"");
 
+  reject_unknown_fields(j,
+                        {"schema", "units", "size_mm", "polarity", "relief_height_mm", "base_thickness_mm", "groups",
+                         "elements", "reference_patch_mm", "fiducials", "artwork"},
+                        top);
   TargetLayout L;
   const Vec2 size = vec_from(field(j, "size_mm", top), "layout.size_mm");
   L.width_mm = size.x;
@@ -166,6 +196,7 @@ TargetLayout layout_from_json(const json& j) {
   int gmin = 1000, gmax = -1000;
   for (size_t i = 0; i < els.size(); ++i) {
     const std::string where = fmt::format("layout.elements[{}]", i);
+    reject_unknown_fields(els[i], {"group", "element", "lp_per_mm", "bar_width_mm", "orientation", "bars_mm"}, where);
     ElementLayout e;
     e.group = int_field(els[i], "group", where);
     e.element = int_field(els[i], "element", where);
@@ -179,18 +210,33 @@ TargetLayout layout_from_json(const json& j) {
     if (!bars.is_array() || bars.size() != 3)
       throw std::invalid_argument(where + ".bars_mm must hold exactly 3 bars");
     for (int b = 0; b < 3; ++b) e.bars_mm[b] = rect_from(bars[b], fmt::format("{}.bars_mm[{}]", where, b));
+    check_element(e, L, where);
+    for (size_t k = 0; k < L.elements.size(); ++k)
+      if (L.elements[k].group == e.group && L.elements[k].element == e.element &&
+          L.elements[k].orientation == e.orientation)
+        throw std::invalid_argument(fmt::format("{} repeats layout.elements[{}] (group {} element {}, {}): each "
+                                                "element and orientation once",
+                                                where, k, e.group, e.element, to_string(e.orientation)));
     gmin = std::min(gmin, e.group);
     gmax = std::max(gmax, e.group);
     L.elements.push_back(e);
   }
   L.first_group = gmin;
   L.last_group = gmax;
+  validate_group_range(gmin, gmax);
+  if (j.contains("groups")) {
+    const Vec2 groups = vec_from(j["groups"], "layout.groups");
+    if (groups.x != gmin || groups.y != gmax)
+      throw std::invalid_argument(fmt::format("layout.groups [{:g}, {:g}] does not match its elements' groups {}..{}",
+                                              groups.x, groups.y, gmin, gmax));
+  }
   L.reference_patch_mm = rect_from(field(j, "reference_patch_mm", top), "layout.reference_patch_mm");
 
   const json& fids = field(j, "fiducials", top);
   if (!fids.is_array()) throw std::invalid_argument("layout.fiducials must be an array");
   for (size_t i = 0; i < fids.size(); ++i) {
     const std::string where = fmt::format("layout.fiducials[{}]", i);
+    reject_unknown_fields(fids[i], {"kind", "id", "center_mm", "radius_mm"}, where);
     Fiducial f;
     if (string_field(fids[i], "kind", where) != "disc")
       throw std::invalid_argument(where + ".kind must be \"disc\"");
@@ -205,6 +251,7 @@ TargetLayout layout_from_json(const json& j) {
   if (!art.is_array()) throw std::invalid_argument("layout.artwork must be an array");
   for (size_t i = 0; i < art.size(); ++i) {
     const std::string where = fmt::format("layout.artwork[{}]", i);
+    reject_unknown_fields(art[i], {"kind", "role", "mm", "center_mm", "radius_mm"}, where);
     ArtworkShape s;
     s.role = role_from(art[i], where);
     const std::string kind = string_field(art[i], "kind", where);

@@ -134,3 +134,40 @@ TEST_CASE("layout JSON reader names the bad field") {
   CHECK_THROWS_WITH_AS(layout_from_json(j), doctest::Contains("schema"), std::invalid_argument);
   CHECK_THROWS_AS(parse_json_text("{\"schema\": ", "x.json"), std::invalid_argument);
 }
+
+TEST_CASE("layout JSON reader refuses unknown fields and numbers that disagree with the bars") {
+  const nlohmann::json good = layout_to_json(make_layout({}));
+  const auto refused = [](const nlohmann::json& j, const char* says) {
+    try {
+      layout_from_json(j);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what()).find(says) != std::string::npos;
+    }
+    return false;
+  };
+  nlohmann::json j = good;
+  j["colour"] = "red";
+  CHECK(refused(j, "layout has unknown field(s) colour"));
+  j = good;
+  j["elements"][2]["note"] = 1;
+  CHECK(refused(j, "layout.elements[2] has unknown field(s) note"));
+  j = good;
+  j["fiducials"][0]["size"] = 1;
+  CHECK(refused(j, "layout.fiducials[0] has unknown field(s) size"));
+  j = good;
+  j["elements"][0]["lp_per_mm"] = 3.0;  // its bars are still the series' width
+  CHECK(refused(j, "layout.elements[0].lp_per_mm 3 is not group"));
+  j = good;
+  j["elements"][0]["bar_width_mm"] = 0.4;
+  CHECK(refused(j, "layout.elements[0].bar_width_mm 0.4 is not half a line pair"));
+  j = good;
+  j["elements"].push_back(j["elements"][4]);
+  CHECK(refused(j, "repeats layout.elements[4]"));
+  j = good;
+  j["size_mm"] = {1e-9, 1e-9};
+  CHECK(refused(j, "lies outside the target's size_mm"));
+  j = good;
+  j["groups"] = {4, 0};
+  CHECK(refused(j, "layout.groups [4, 0] does not match its elements' groups 0..4"));
+  CHECK_NOTHROW(layout_from_json(good));
+}

@@ -116,13 +116,17 @@ std::vector<double> JsonFields::numbers(const char* key, size_t count, double lo
   return out;
 }
 
-void JsonFields::finish() const {
+void reject_unknown_fields(const nlohmann::json& object, const std::set<std::string>& valid,
+                           const std::string& where) {
+  if (!object.is_object()) return;
   std::vector<std::string> unknown;
-  for (auto it = object_.begin(); it != object_.end(); ++it)
-    if (!read_.count(it.key())) unknown.push_back(it.key());
+  for (auto it = object.begin(); it != object.end(); ++it)
+    if (!valid.count(it.key())) unknown.push_back(it.key());
   if (unknown.empty()) return;
-  throw std::invalid_argument(fmt::format("{} has unknown field(s) {}: valid fields are {}", where_,
-                                          fmt::join(unknown, ", "), fmt::join(read_, ", ")));
+  throw std::invalid_argument(fmt::format("{} has unknown field(s) {}: valid fields are {}", where,
+                                          fmt::join(unknown, ", "), fmt::join(valid, ", ")));
 }
+
+void JsonFields::finish() const { reject_unknown_fields(object_, read_, where_); }
 
 }  // namespace tactres

@@ -20,6 +20,11 @@ std::string json_text(const nlohmann::json& j, int indent = 2);
 // `s` with every byte sequence that is not UTF-8 replaced by U+FFFD.
 std::string valid_utf8(const std::string& s);
 
+// Throws std::invalid_argument naming `where`, the unknown field(s) and
+// the valid ones when `object` holds a key outside `valid`.
+void reject_unknown_fields(const nlohmann::json& object, const std::set<std::string>& valid,
+                           const std::string& where);
+
 class JsonFields {
  public:
   // `where` names the object in messages, e.g. "scene.effects[2]".
