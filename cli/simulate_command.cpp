@@ -87,8 +87,18 @@ Command simulate_command() {
                     "an ideal (float) render needs .tif or .exr; add a sensor effect to write .png");
 
               const auto t0 = std::chrono::steady_clock::now();
-              const RenderResult r = render_scene(scene, layout, camera, a->seed);
               const Truth truth = compute_truth(scene, layout, camera);
+              // A capture with no element in view (a target behind the
+              // camera, or offset off the sensor) would be a black frame
+              // whose truth holds nothing to measure.
+              if (std::none_of(truth.elements.begin(), truth.elements.end(),
+                               [](const TruthElement& e) { return e.in_view; }))
+                throw std::invalid_argument(fmt::format(
+                    "the scene puts no element of the target in full view of the {}x{} camera: check its pose "
+                    "(the target must lie in front of the camera, +z, within its field: distance_mm, offset_mm, "
+                    "rt_camera_from_target)",
+                    camera.imager_width(), camera.imager_height()));
+              const RenderResult r = render_scene(scene, layout, camera, a->seed);
               const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
               // The capture and its truth, both or neither; their folders

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <map>
 #include <memory>
 
 #include <fmt/format.h>
@@ -181,6 +182,9 @@ int run_watch(const Args& a) {
   if (a.focus_element.size() == 2) {
     if (a.focus_element[1] < 1 || a.focus_element[1] > 6)
       throw std::invalid_argument("--focus-element G E: E must be in 1..6");
+    if (layout && (a.focus_element[0] < layout->first_group || a.focus_element[0] > layout->last_group))
+      throw std::invalid_argument(fmt::format("--focus-element G E: the target has groups {}..{}, not {}",
+                                              layout->first_group, layout->last_group, a.focus_element[0]));
     focus_h = focus_v = {a.focus_element[0], a.focus_element[1]};
   }
   std::unique_ptr<FrameSource> source = open_frame_source(a.source, load, camera_settings(a));
@@ -201,6 +205,7 @@ int run_watch(const Args& a) {
   Best best;
   long frames = 0, measured = 0, tracked = 0;
   std::vector<double> ms;
+  std::map<std::string, long> problems;  // of the frames not measured: what each said
   while (!g_stop && (a.max_frames == 0 || frames < a.max_frames)) {
     std::optional<Frame> frame = source->next();
     if (!frame) break;
@@ -223,6 +228,7 @@ int run_watch(const Args& a) {
     status.update(r, fh, fv);
     if (window && frame->image && !window->show(frame->image->luminance, r, fh, fv)) g_stop = true;
     ++frames;
+    if (!r.measured) ++problems[r.problem.empty() ? "no reason given" : r.problem];
     if (r.measured) {
       ++measured;
       tracked += r.tracked;
@@ -237,7 +243,15 @@ int run_watch(const Args& a) {
   fmt::print("{} frame(s), {} measured ({} tracked), median analysis {:.1f} ms{}\n", frames, measured, tracked,
              ms.empty() ? 0.0 : ms[ms.size() / 2], g_stop ? "; stopped by the user" : "");
   if (!best.score) {
-    fmt::print(stderr, "no frame could be measured: {}\n", "is the target in view and lit? (see the CSV's problem column)");
+    // What most frames said, whether or not a CSV or a terminal showed it.
+    const auto most = std::max_element(problems.begin(), problems.end(),
+                                       [](const auto& x, const auto& y) { return x.second < y.second; });
+    fmt::print(stderr, "no frame could be measured: {}{}\n",
+               most == problems.end() ? "no frame was read" : most->first,
+               most == problems.end() ? ""
+               : problems.size() == 1 ? fmt::format(" ({} frame(s))", most->second)
+                                      : fmt::format(" ({} of {} frame(s); {} other problem(s){})", most->second, frames,
+                                                    problems.size() - 1, csv ? ": see the CSV's problem column" : ""));
     return kExitUnusableInput;
   }
   fmt::print("best frame: {} ({}): H {}; V {}\n", best.frame.index, best.frame.name,

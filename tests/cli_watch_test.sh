@@ -31,6 +31,14 @@ expect 3 "malformed layout" "not valid JSON" "$work/target" --layout "$work/targ
 expect 3 "bad refit" "--refit-every" "$work/target" --layout "$layout" --refit-every 0
 expect 3 "bad size" "--size" "/dev/video99" --layout "$layout" --size big
 DISPLAY= WAYLAND_DISPLAY= expect 3 "window without display" "display" "$work/target" --layout "$layout" --window
+expect 3 "focus group not on the target" "the target has groups 0..4, not 9" "$work/target" --layout "$layout" \
+  --focus-element 9 1
+# One image is one frame, decoded as measure decodes it (not as a video).
+"$tactres" watch "$work/target/height.tif" --layout "$layout" >"$work/out" 2>"$work/err"
+grep -q "watching image .*height.tif (1 image(s))" "$work/err" || fail "one image: not read as one frame: $(cat "$work/err")"
+grep -q "^1 frame(s), 0 measured" "$work/out" || fail "one image: the summary: $(cat "$work/out")"
+# Without a CSV, the summary still says why no frame was measured.
+grep -q "no frame could be measured: no target found" "$work/err" || fail "one image: the reason is not given: $(cat "$work/err")"
 
 # Frames without the target: every row says why, exit 2, the summary says so.
 mkdir -p "$work/blank"

@@ -59,7 +59,7 @@ class FileSequence final : public FrameSource {
     return f;
   }
 
-  std::string describe() const override { return fmt::format("{} ({} images)", what_, files_.size()); }
+  std::string describe() const override { return fmt::format("{} ({} image(s))", what_, files_.size()); }
 
  private:
   std::vector<fs::path> files_;
@@ -162,6 +162,10 @@ std::unique_ptr<FrameSource> open_frame_source(const std::string& source, const 
         "cannot read {}: no such file or folder (give a folder of images, a glob in quotes, a video file or "
         "/dev/videoN)",
         source));
+  // One image is a sequence of one frame, decoded as measure decodes it
+  // (its bit depth and colour tags), not through a video decoder.
+  if (is_image_file_name(fs::path(source).filename().string()))
+    return std::make_unique<FileSequence>(std::vector<fs::path>{source}, load, "image " + source);
   auto cap = std::make_unique<cv::VideoCapture>(source, cv::CAP_ANY);
   if (!cap->isOpened())
     throw std::runtime_error(fmt::format(

@@ -110,6 +110,9 @@ void write_gray_image(const std::filesystem::path& path, const ImageF& image, Pi
   spec.attribute("YResolution", float(px_per_mm * 10));
   spec.attribute("ResolutionUnit", "cm");
   spec.attribute("Software", "tactres");
+  // Area coverage is linear: tagged so (a PNG's gAMA 1.0), or a reader,
+  // tactres's own among them, takes an untagged 8-bit file for sRGB.
+  spec.attribute("oiio:ColorSpace", "Linear");
   if (!writer->open(temp, spec))
     throw std::runtime_error("cannot write " + path.string() + ": " + writer->geterror());
 

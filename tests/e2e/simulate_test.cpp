@@ -245,3 +245,22 @@ TEST_CASE("simulate: a lossy or 8-bit-only capture format is refused, and missin
   CHECK(fs::exists(dir.path / "new" / "folder" / "c.png"));
   CHECK(fs::exists(dir.path / "new" / "folder" / "c.png.truth.json"));
 }
+
+TEST_CASE("simulate: a scene with no element in view (the target behind the camera, or off the sensor) is refused") {
+  TempDir dir("nothing-in-view");
+  nlohmann::json scene = nlohmann::json::parse(read_file(source_dir() / "examples/scenes/cmos.json"));
+  scene["camera"] = (source_dir() / "examples/cameras/wide_angle.cameramodel").string();
+  for (const nlohmann::json& pose : {nlohmann::json{{"rt_camera_from_target", {0, 0, 0, 0, 0, -26}}},
+                                     nlohmann::json{{"rt_camera_from_target", {0, 0, 0, 500, 0, 26}}}}) {
+    CAPTURE(pose.dump());
+    scene["pose"] = pose;
+    write_file_atomically(dir.path / "scene.json", scene.dump());
+    const std::string cmd = std::string(TACTRES_BINARY) + " simulate " + (dir.path / "scene.json").string() +
+                            " -o " + (dir.path / "c.png").string() + " > /dev/null 2> " +
+                            (dir.path / "err.txt").string();
+    const int status = std::system(cmd.c_str());
+    CHECK((WIFEXITED(status) && WEXITSTATUS(status) == 3));
+    CHECK(read_file(dir.path / "err.txt").find("no element of the target in full view") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir.path / "c.png"));
+  }
+}

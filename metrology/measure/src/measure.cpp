@@ -354,7 +354,10 @@ FrameResult measure_frame(const LoadedImage& image, const TargetLayout& layout, 
   Measurement& M = out.measurement;
   M.image_width = image.width;
   M.image_height = image.height;
-  if (camera) camera->check_image_size(image.width, image.height);
+  if (camera) {
+    camera->check_image_size(image.width, image.height);
+    M.camera_source = camera->source();  // read, even if the target is not found
+  }
   if (const double share = clipped_share(image); share > 0.5) {
     M.problem = fmt::format(
         "the capture is saturated: {:.0f}% of the pixels are at the clip level; reduce exposure or "
