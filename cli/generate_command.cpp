@@ -77,7 +77,7 @@ int run_generate(GenerateArgs a) {
     if (a.field_given)
       throw std::invalid_argument(
           "--field-mm / --field-width-mm / --field-height-mm do not apply to --style mil-std-150a: the "
-          "standard arrangement fixes the chart's size (group -2 makes it about 88 x 63 mm)");
+          "standard arrangement fixes the chart's size (group -2 makes it about 88 x 67 mm)");
     MilStdChartOptions c;
     if (a.first_given) c.first_group = a.layout.first_group;
     if (a.last_given) c.last_group = a.layout.last_group;
