@@ -157,9 +157,33 @@ double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& 
 // +-30 % scale change over half the image covers a 15-20 degree tilt of a
 // chart that fills the view. A search, not a fit, because wrong indices
 // make a fit converge to a wrong but self-consistent field.
+// Whether the elements lie along one line (a single column in view): the
+// smaller spread of their centres under a fifth of the larger. Along a
+// column the series itself shrinks the elements step by step, and a
+// gradient along it trades that for another index spacing (the left half
+// of dev_04, G4E2-E6, was indexed 0, 2, 4, 5, 6): no gradient is fitted.
+bool along_one_line(const ChartDetection& D, const std::vector<ChartElement>& elements) {
+  if (elements.size() < 3) return true;
+  double mx = 0, my = 0;
+  for (const ChartElement& e : elements) {
+    const Vec2 c = 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
+    mx += c.x, my += c.y;
+  }
+  mx /= double(elements.size()), my /= double(elements.size());
+  double sxx = 0, sxy = 0, syy = 0;
+  for (const ChartElement& e : elements) {
+    const Vec2 c = 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
+    sxx += (c.x - mx) * (c.x - mx), sxy += (c.x - mx) * (c.y - my), syy += (c.y - my) * (c.y - my);
+  }
+  const double half_trace = 0.5 * (sxx + syy), d = std::sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
+  const double major = half_trace + d, minor = std::max(half_trace - d, 0.0);
+  return minor < 0.04 * major;  // spreads (standard deviations) under 1 : 5
+}
+
 Vec2 scale_gradient(const ChartDetection& D, const std::vector<ChartElement>& elements,
                     const ScaleField& field) {
   Vec2 best_g{0, 0};
+  if (along_one_line(D, elements)) return best_g;
   std::vector<ChartElement> kept;
   double best_cost = assign_indices(D, elements, field, best_g, kept);
   for (double step : {0.03, 0.006}) {
