@@ -2,6 +2,7 @@
 #include "stl_ear_clipper.h"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <utility>
 
@@ -118,6 +119,9 @@ void EarClipper::build_grid(int start, int count) {
   for (int n = at(start).next; n != start; n = at(n).next)
     grid_box_ = bounding_union(grid_box_, {p(n).x, p(n).y, p(n).x, p(n).y});
   const double span = std::max({grid_box_.width_mm(), grid_box_.height_mm(), 1e-9});
+  const double largest_mm = std::max({std::abs(grid_box_.x0), std::abs(grid_box_.x1), std::abs(grid_box_.y0),
+                                      std::abs(grid_box_.y1), span});
+  min_ear_height_mm_ = 10 * largest_mm * std::numeric_limits<float>::epsilon();
   cell_ = std::max(std::sqrt(std::max(grid_box_.area_mm2(), span * span * 1e-4) / count), span / 512);
   gx_ = int(grid_box_.width_mm() / cell_) + 1;
   gy_ = int(grid_box_.height_mm() / cell_) + 1;
@@ -129,10 +133,11 @@ void EarClipper::build_grid(int start, int count) {
   } while (n != start);
 }
 
-bool EarClipper::is_ear(int b) const {
+bool EarClipper::is_ear(int b, double min_height_mm) const {
   const int a = nodes_[size_t(b)].prev, c = nodes_[size_t(b)].next;
   const Vec2 pa = p(a), pb = p(b), pc = p(c);
-  if (orient(pa, pb, pc) <= 0) return false;
+  const double twice_area = orient(pa, pb, pc);
+  if (twice_area <= 0 || twice_area <= min_height_mm * norm(pc - pa)) return false;
   if (!in_sector(a, pc - pa) || !in_sector(c, pa - pc)) return false;
   const int ia = nodes_[size_t(a)].id, ib = nodes_[size_t(b)].id, ic = nodes_[size_t(c)].id;
   const int i0 = gi(std::min({pa.x, pb.x, pc.x})), i1 = gi(std::max({pa.x, pb.x, pc.x}));
@@ -149,13 +154,31 @@ bool EarClipper::is_ear(int b) const {
   return true;
 }
 
+int EarClipper::tallest_ear(int start) const {
+  int best = start;
+  double best_height = -1;
+  int n = start;
+  do {
+    const Vec2 pa = p(nodes_[size_t(n)].prev), pc = p(nodes_[size_t(n)].next);
+    const double height = orient(pa, p(n), pc) / std::max(norm(pc - pa), 1e-300);
+    if (height > best_height && is_ear(n, 0.0)) best = n, best_height = height;
+    n = nodes_[size_t(n)].next;
+  } while (n != start);
+  return best;
+}
+
 void EarClipper::clip_ears(int start, std::vector<std::array<int, 3>>& tris) {
   int count = 1;
   for (int n = at(start).next; n != start; n = at(n).next) ++count;
   build_grid(start, count);
+  // Ears flatter than min_ear_height_mm_ are taken only when no other is
+  // left: a sliver along a 12 mm base edge came out of float32 rounding
+  // with its normal reversed, and one on a label with no area (the
+  // MIL-STD-150A chart).
   int cur = start, misses = 0;
   while (count > 3) {
-    if (is_ear(cur)) {
+    if (misses > count) cur = tallest_ear(cur);  // no ear of min_ear_height_mm_ is left
+    if (is_ear(cur, misses > count ? 0.0 : min_ear_height_mm_)) {
       const int a = at(cur).prev, c = at(cur).next;
       tris.push_back({at(a).id, at(cur).id, at(c).id});
       at(cur).removed = true;
@@ -166,7 +189,7 @@ void EarClipper::clip_ears(int start, std::vector<std::array<int, 3>>& tris) {
       misses = 0;
     } else {
       cur = at(cur).next;
-      if (++misses > count) throw std::logic_error("relief mesh: ear clipping found no ear");
+      if (++misses > 2 * count + 1) throw std::logic_error("relief mesh: ear clipping found no ear");
     }
   }
   const int a = at(cur).prev, c = at(cur).next;

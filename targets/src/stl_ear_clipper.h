@@ -38,6 +38,9 @@ class EarClipper {
   std::vector<std::vector<int>> grid_;
   RectMm grid_box_;
   double cell_ = 1;
+  // Ears flatter than this are clipped only when no other is left: ten
+  // float32 steps at the outline's largest coordinate (build_grid).
+  double min_ear_height_mm_ = 0;
   int gx_ = 1, gy_ = 1;
 
   Vec2 p(int n) const { return pts_[size_t(nodes_[size_t(n)].id)]; }
@@ -51,7 +54,12 @@ class EarClipper {
   void bridge(int m, int start);
   void splice(int a, int b);
   void build_grid(int start, int count);
-  bool is_ear(int b) const;
+  // `min_height_mm`: b must stand at least this far off the line a-c (a
+  // sliver thinner than float32 can hold flips or vanishes in the STL).
+  bool is_ear(int b, double min_height_mm) const;
+  // Of the ring through `start`, the ear whose tip stands farthest off the
+  // line between its neighbours (`start` if none is an ear).
+  int tallest_ear(int start) const;
   void clip_ears(int start, std::vector<std::array<int, 3>>& tris);
 };
 
