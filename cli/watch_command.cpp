@@ -44,8 +44,8 @@ extern "C" void on_interrupt(int) { g_stop = true; }
 
 void add_watch_options(CLI::App& app, Args& a) {
   app.add_option("source", a.source,
-                 "Frames: a folder of images or a quoted glob (read in name order), a video file, or a V4L2 "
-                 "camera /dev/videoN")
+                 "Frames: a folder of images or a quoted glob (read in name order), one image file, a video "
+                 "file, or a V4L2 camera /dev/videoN")
       ->required();
   auto* layout = app.add_option("--layout", a.layout, "Layout JSON of the target (layout mode)");
   auto* chart = app.add_option("--chart", a.chart, "A standard USAF-1951 chart instead of a layout (docs/CHART.md)")

@@ -24,6 +24,7 @@
 #include "tactres/simulate/truth.h"
 #include "tactres/targets/layout_json.h"
 #include "tactres/util/atomic_file.h"
+#include "tactres/util/json_fields.h"
 #include "bench_stats.h"
 
 namespace tactres {
@@ -84,8 +85,8 @@ std::map<int, Capture> render_captures(const BenchScene& b, const Truth& truth, 
   const Capture& base_capture = captures.at(kBenchBaseSupersampling);
   write_file_atomically(
       captures_dir / (b.name + ".truth.json"),
-      truth_to_json(truth, b.scene, base_capture.file.empty() ? b.name : base_capture.file.filename().string())
-              .dump(2) +
+      json_text(truth_to_json(truth, b.scene,
+                              base_capture.file.empty() ? b.name : base_capture.file.filename().string())) +
           "\n");
   return captures;
 }

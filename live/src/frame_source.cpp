@@ -169,7 +169,9 @@ std::unique_ptr<FrameSource> open_frame_source(const std::string& source, const 
   auto cap = std::make_unique<cv::VideoCapture>(source, cv::CAP_ANY);
   if (!cap->isOpened())
     throw std::runtime_error(fmt::format(
-        "cannot decode {} as a video: for single images give their folder or a glob instead", source));
+        "cannot decode {} as a video (nor is it a png, tif, tiff, jpg, jpeg, exr, pgm, ppm or bmp image): convert "
+        "it to one of those",
+        source));
   return std::make_unique<VideoSequence>(std::move(cap), load, "video " + source, false);
 }
 

@@ -26,7 +26,7 @@ TEST_CASE("frame source: a folder is read in name order, a bad file is reported 
   std::ofstream(dir.path / "notes.txt") << "ignored";
   write_grey(dir.path / "d.png", 0.75f);
   auto src = open_frame_source(dir.path.string(), {});
-  CHECK(src->describe().find("4 images") != std::string::npos);
+  CHECK(src->describe().find("4 image(s)") != std::string::npos);
   std::vector<std::string> names;
   std::vector<double> levels;
   while (auto f = src->next()) {

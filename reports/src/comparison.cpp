@@ -7,7 +7,10 @@
 #include <tuple>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
+#include "tactres/measure/measurement_io.h"
+#include "tactres/targets/layout_json.h"
 #include "tactres/util/atomic_file.h"
 
 namespace tactres {
@@ -380,6 +383,43 @@ Comparison compare_designs(std::vector<MeasurementRecord> measurements, Measurem
   return c;
 }
 
+namespace {
+
+// One design's file. One that cannot be read (missing, a folder, not
+// JSON, truncated, a malformed measurement) is a failed record, not the
+// end of the report: it joins its design when the file still names one,
+// else it is named after its file. Another tactres file (a layout or a
+// truth caught by a glob) is no design's, and is refused as before.
+MeasurementRecord read_design_file(const fs::path& f) {
+  MeasurementRecord failed;
+  failed.path = f;
+  failed.readable = false;
+  nlohmann::json j;
+  try {
+    j = parse_json_text(read_file(f), f.string());
+  } catch (const std::exception& e) {
+    failed.design = f.stem().string();
+    failed.problem = std::string(e.what()) + " (its design is unknown: the row is named after the file)";
+    return failed;
+  }
+  const std::string schema = j.is_object() && j.contains("schema") && j["schema"].is_string() ? j["schema"] : "";
+  if (schema.rfind("tactres.", 0) == 0 && schema != kMeasurementSchema && schema != kMeasurementSchemaV1)
+    return measurement_from_json(j, f.string());  // throws: not a measurement
+  try {
+    MeasurementRecord r = measurement_from_json(j, f.string());
+    r.path = f;
+    return r;
+  } catch (const std::exception& e) {
+    const bool named = j.is_object() && j.contains("design") && j["design"].is_string() &&
+                       !j["design"].get<std::string>().empty();
+    failed.design = named ? j["design"].get<std::string>() : f.stem().string();
+    failed.problem = std::string(e.what()) + (named ? "" : " (its design is unknown: the row is named after the file)");
+    return failed;
+  }
+}
+
+}  // namespace
+
 Comparison load_comparison(const std::vector<fs::path>& measurement_files, const fs::path& reference_file) {
   if (reference_file.empty())
     throw std::invalid_argument(
@@ -389,9 +429,12 @@ Comparison load_comparison(const std::vector<fs::path>& measurement_files, const
     throw std::invalid_argument("no measurement JSONs given: list the designs' result JSONs before --reference");
 
   std::error_code ec;
+  // Absolute first: weakly_canonical gives a relative path none of whose
+  // parts exists back unchanged ("nope.json" against "./nope.json").
   auto identity = [&](const fs::path& p) {
-    const fs::path c = fs::weakly_canonical(p, ec);
-    return ec ? p.lexically_normal() : c;
+    const fs::path a = fs::absolute(p, ec);
+    const fs::path c = fs::weakly_canonical(ec ? p : a, ec);
+    return (ec ? a : c).lexically_normal();
   };
   const fs::path ref_id = identity(reference_file);
   std::vector<fs::path> files;
@@ -410,21 +453,8 @@ Comparison load_comparison(const std::vector<fs::path>& measurement_files, const
         reference_file.string()));
 
   MeasurementRecord reference = read_measurement_file(reference_file);
-  // One design file that cannot be read is a failed row, not the end of
-  // the report (the reference, which every percentage needs, must read).
   std::vector<MeasurementRecord> records;
-  for (const fs::path& f : files) {
-    try {
-      records.push_back(read_measurement_file(f));
-    } catch (const std::exception& e) {
-      MeasurementRecord unreadable;
-      unreadable.path = f;
-      unreadable.design = f.stem().string();
-      unreadable.readable = false;
-      unreadable.problem = e.what();
-      records.push_back(std::move(unreadable));
-    }
-  }
+  for (const fs::path& f : files) records.push_back(read_design_file(f));
   return compare_designs(std::move(records), std::move(reference));
 }
 

@@ -140,6 +140,8 @@ json layout_to_json(const TargetLayout& layout) {
   return j;
 }
 
+namespace {
+
 // An element's numbers must agree with each other and with its bars: a
 // layout edited by hand (lp_per_mm 3 beside bar_width_mm 0.5) would be
 // measured and reported under a frequency its bars do not have.
@@ -164,6 +166,8 @@ void check_element(const ElementLayout& e, const TargetLayout& L, const std::str
                                               b, L.width_mm, L.height_mm));
   }
 }
+
+}  // namespace
 
 TargetLayout layout_from_json(const json& j) {
   const std::string top = "layout";

@@ -78,21 +78,33 @@ expect_refusal "mixed criteria" "mixed criteria" "$data/T1C1.json" "$work/T1C3_s
 head -c 500 "$data/T1C1.json" >"$work/truncated.json"
 echo '{"schema": "tactres.target/1"}' >"$work/layout_not_measurement.json"
 mkdir -p "$work/a_folder.json" "$work/rows"
-"$tactres" report "$data/T1C1.json" "$work/nope.json" "$work/truncated.json" "$work/layout_not_measurement.json" \
+"$tactres" report "$data/T1C1.json" "$work/nope.json" "$work/truncated.json" \
   "$work/a_folder.json" --reference "$data/cmos.json" --csv "$work/rows/r.csv" --html "$work/rows/r.html" \
   >"$work/stdout" 2>"$work/stderr"
 rc=$?
 [ "$rc" -eq 0 ] || fail "bad design files: exit $rc, expected 0: $(cat "$work/stderr")"
 grep -q '^design,T1C1,1,0,ok,' "$work/rows/r.csv" || fail "bad design files: the good design is not reported"
-for stem in nope truncated layout_not_measurement a_folder; do
+for stem in nope truncated a_folder; do
   grep -q "^design,$stem,0,1,failed," "$work/rows/r.csv" || fail "bad design files: $stem is not a failed row"
 done
 grep -q "truncated *failed: $work/truncated.json is not valid JSON" "$work/stdout" ||
   fail "bad design files: the truncated file's reason is not shown: $(cat "$work/stdout")"
 grep -q "a_folder *failed: cannot read $work/a_folder.json: it is a folder" "$work/stdout" ||
   fail "bad design files: the folder's reason is not shown"
-grep -q "5 design(s) from 5 measurement(s).*; 4 failed" "$work/stdout" || fail "bad design files: the count line"
+grep -q "4 design(s) from 4 measurement(s).*; 3 failed" "$work/stdout" || fail "bad design files: the count line"
 echo "ok: unreadable design files are failed rows"
+# Another tactres file (a layout caught by a glob) is no design's: refused.
+expect_refusal "not a measurement" "$work/layout_not_measurement.json is not a tactres measurement" \
+  "$data/T1C1.json" "$work/layout_not_measurement.json" --reference "$data/cmos.json" "${out_args[@]}"
+# A failed press joins its design when the file still names it.
+sed 's#"usable": true#"usable": "yes"#' "$data/T1C2_press3.json" >"$work/T1C2_bad_press.json"
+"$tactres" report "$data/T1C1.json" "$data/T1C2_press1.json" "$work/T1C2_bad_press.json" --reference "$data/cmos.json" \
+  --csv "$work/rows/p.csv" >/dev/null 2>&1 || fail "a malformed press: refused"
+grep -q "^design,T1C2,[0-9]*,1,partly_failed," "$work/rows/p.csv" ||
+  fail "a malformed press is not a failed press of its design: $(cat "$work/rows/p.csv")"
+# A missing file given twice, spelt two ways, is still given twice.
+expect_refusal "missing file given twice" "given twice" "$data/T1C1.json" "$work/nope.json" "$work/./nope.json" \
+  --reference "$data/cmos.json" "${out_args[@]}"
 # An unreadable reference is refused: every percentage needs it.
 expect_refusal "truncated reference" "$work/truncated.json is not valid JSON" "$data/T1C1.json" \
   --reference "$work/truncated.json" "${out_args[@]}"

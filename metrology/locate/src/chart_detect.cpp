@@ -16,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "chart_detect_internal.h"
+#include "tactres/targets/usaf_series.h"
 
 namespace tactres {
 
@@ -153,15 +154,12 @@ double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& 
   return n > 1 ? sum2 / n - (sum / n) * (sum / n) + 1e-3 * norm(g) : 0.0;
 }
 
-// The field's gradient: a grid search, then a finer one around the best;
-// +-30 % scale change over half the image covers a 15-20 degree tilt of a
-// chart that fills the view. A search, not a fit, because wrong indices
-// make a fit converge to a wrong but self-consistent field.
 // Whether the elements lie along one line (a single column in view): the
 // smaller spread of their centres under a fifth of the larger. Along a
 // column the series itself shrinks the elements step by step, and a
 // gradient along it trades that for another index spacing (the left half
 // of dev_04, G4E2-E6, was indexed 0, 2, 4, 5, 6): no gradient is fitted.
+// Two elements always lie on a line.
 bool along_one_line(const ChartDetection& D, const std::vector<ChartElement>& elements) {
   if (elements.size() < 3) return true;
   double mx = 0, my = 0;
@@ -180,6 +178,10 @@ bool along_one_line(const ChartDetection& D, const std::vector<ChartElement>& el
   return minor < 0.04 * major;  // spreads (standard deviations) under 1 : 5
 }
 
+// The field's gradient: a grid search, then a finer one around the best;
+// +-30 % scale change over half the image covers a 15-20 degree tilt of a
+// chart that fills the view. A search, not a fit, because wrong indices
+// make a fit converge to a wrong but self-consistent field.
 Vec2 scale_gradient(const ChartDetection& D, const std::vector<ChartElement>& elements,
                     const ScaleField& field) {
   Vec2 best_g{0, 0};
@@ -409,7 +411,10 @@ void anchor(ChartDetection& D, const std::vector<ChartElement>& kept, const std:
   ChartDetection shown = D;
   anchor_from_chart(shown, kept, partial, field, img);
   if (shown.anchor == ChartAnchor::none || shown.largest_index == D.largest_index) return;
-  const auto name = [](int n) { return fmt::format("G{}E{}", floor_div6(n), n - 6 * floor_div6(n) + 1); };
+  const auto name = [](int n) {
+    const UsafElement e = usaf_element_at(n);
+    return fmt::format("G{}E{}", e.group, e.element);
+  };
   D.anchor_conflict = fmt::format(
       "{} makes the largest element found {}, but the chart itself says {} ({}); the option was used: check it",
       options.px_per_mm ? "--px-per-mm" : "--largest-group", name(D.largest_index), name(shown.largest_index),

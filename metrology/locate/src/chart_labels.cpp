@@ -58,13 +58,15 @@ Vec2 element_center(const ChartDetection& D, const ChartElement& e) {
 class ReaderLease {
  public:
   ReaderLease() {
-    std::lock_guard<std::mutex> lock(pool().mutex);
-    if (!pool().idle.empty()) {
-      reader_ = std::move(pool().idle.back());
-      pool().idle.pop_back();
-      return;
+    {
+      std::lock_guard<std::mutex> lock(pool().mutex);
+      if (!pool().idle.empty()) {
+        reader_ = std::move(pool().idle.back());
+        pool().idle.pop_back();
+        return;
+      }
     }
-    LabelReaderOrError made = LabelReader::create();
+    LabelReaderOrError made = LabelReader::create();  // tens of ms: not under the lock
     reader_ = std::move(made.reader);
     error_ = made.error;
   }

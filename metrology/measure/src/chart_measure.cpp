@@ -425,12 +425,12 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   const bool scaled = chart::chart_level_steps(D, refs, jobs, profiles, mo, M.reference, &step_note);
   M.stage_seconds.push_back({"reference_patch", t.seconds()});
   set_nyquist(frames, D, M);
+  if (!D.anchor_conflict.empty()) M.warnings.push_back(D.anchor_conflict);
   if (!scaled) {
     M.problem = step_note;
     return out;
   }
   if (!step_note.empty()) M.warnings.push_back(step_note);
-  if (!D.anchor_conflict.empty()) M.warnings.push_back(D.anchor_conflict);
 
   std::vector<size_t> graded;
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false, true}, M.elements, &graded)});

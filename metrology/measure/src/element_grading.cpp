@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <set>
 #include <numbers>
 #include <optional>
 #include <tuple>
@@ -360,15 +360,16 @@ namespace {
 // limit went from G0E6 to G2E5 with nothing said).
 void add_elements_not_found(const Measurement& M, BarOrientation o, std::vector<MPoint>& m,
                             std::vector<CnrPoint>& cnr) {
-  std::map<int, double> lp_per_mm_by_index;  // by usaf_index
+  // A relative chart's frequencies are multiples of G0E1's, the series'
+  // own values too.
+  std::set<int> found;  // by usaf_index
   for (const ElementResult& r : M.elements)
-    if (r.orientation == o) lp_per_mm_by_index[usaf_index(r.group, r.element)] = r.lp_per_mm;
-  if (lp_per_mm_by_index.empty()) return;
-  const auto [first, first_lp_per_mm] = *lp_per_mm_by_index.begin();
-  for (int n = first + 1; n < lp_per_mm_by_index.rbegin()->first; ++n) {
-    if (lp_per_mm_by_index.count(n)) continue;
+    if (r.orientation == o) found.insert(usaf_index(r.group, r.element));
+  if (found.empty()) return;
+  for (int n = *found.begin() + 1; n < *found.rbegin(); ++n) {
+    if (found.count(n)) continue;
     const UsafElement e = usaf_element_at(n);
-    const double lp_per_mm = first_lp_per_mm * std::exp2((n - first) / double(kUsafElementsPerGroup));
+    const double lp_per_mm = usaf_lp_per_mm(e.group, e.element);
     m.push_back({e.group, e.element, lp_per_mm, 0, 0, false, true});
     cnr.push_back({e.group, e.element, lp_per_mm, 0, 0, false, true});
   }

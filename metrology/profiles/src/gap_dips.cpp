@@ -47,7 +47,8 @@ std::optional<int> GapDips::flat_gap() const {
   if (!valid) return std::nullopt;
   for (int k = 0; k < 2; ++k) {
     // Flat: no dip within the noise, or one under a tenth of the other
-    // gap's, as m under the criterion's 0.1 is no modulation. A JPEG's
+    // gap's (a fixed share, whatever --threshold says: a gap a reader
+    // does not see beside one that plainly dips). A JPEG's
     // smoothing shrinks the bins' errors, and a copy of dev_04 at q90 made
     // G6E6 H's first gap (flat at 1.3 sigma in the original) dip at 4.6
     // sigma, 5 % of the other: it was resolved, the limit four elements

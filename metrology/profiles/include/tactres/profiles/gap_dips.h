@@ -36,7 +36,7 @@ struct GapDips {
   // kMinGapDipRatio of the other's) while the other clearly does (over 5
   // sigma, so the data could show one there), if any. Two shallow gaps are the model's business (a
   // blurred element reads a low m), not this check's.
-  static constexpr double kMinGapDipRatio = 0.1;
+  static constexpr double kMinGapDipRatio = 0.1;  // fixed, not the criterion's threshold
   std::optional<int> flat_gap() const;
 
   // Both gaps dip clearly (each over 5 sigma): the data show all three
