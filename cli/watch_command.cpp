@@ -19,6 +19,7 @@
 #include "tactres/live/live_measure.h"
 #include "tactres/live/watch_window.h"
 #include "tactres/targets/layout_json.h"
+#include "tactres/util/atomic_file.h"
 
 namespace tactres::cli {
 namespace {
@@ -187,6 +188,8 @@ int run_watch(const Args& a) {
                                               layout->first_group, layout->last_group, a.focus_element[0]));
     focus_h = focus_v = {a.focus_element[0], a.focus_element[1]};
   }
+  // The CSV over the source, the layout or the camera would destroy it.
+  refuse_colliding_outputs({a.csv}, {a.source, a.layout, a.camera});
   std::unique_ptr<FrameSource> source = open_frame_source(a.source, load, camera_settings(a));
   std::unique_ptr<WatchWindow> window;
   if (a.window) window = std::make_unique<WatchWindow>("tactres watch");

@@ -31,6 +31,10 @@ expect 3 "malformed layout" "not valid JSON" "$work/target" --layout "$work/targ
 expect 3 "bad refit" "--refit-every" "$work/target" --layout "$layout" --refit-every 0
 expect 3 "bad size" "--size" "/dev/video99" --layout "$layout" --size big
 DISPLAY= WAYLAND_DISPLAY= expect 3 "window without display" "display" "$work/target" --layout "$layout" --window
+cp "$layout" "$work/layout_copy.json"
+expect 3 "CSV over the layout" "is also an input" "$work/target" --layout "$work/layout_copy.json" \
+  --csv "$work/layout_copy.json"
+cmp -s "$layout" "$work/layout_copy.json" || fail "CSV over the layout: the layout was changed"
 expect 3 "focus group not on the target" "the target has groups 0..4, not 9" "$work/target" --layout "$layout" \
   --focus-element 9 1
 # One image is one frame, decoded as measure decodes it (not as a video).
