@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <optional>
@@ -29,8 +31,17 @@ std::string random_tag() {
 // the message).
 void write_bytes(const std::filesystem::path& temp_path, const std::filesystem::path& final_path,
                  std::string_view bytes) {
+  errno = 0;
   std::ofstream f(temp_path, std::ios::binary | std::ios::trunc);
-  if (!f) throw std::runtime_error("cannot write " + final_path.string() + ": the folder is missing or not writable");
+  if (!f) {
+    // The system's reason: a missing folder, no permission, or a name too
+    // long (the temporary name is 14 bytes longer than the final one).
+    const std::string why = errno ? std::strerror(errno) : "the folder is missing or not writable";
+    throw std::runtime_error("cannot write " + final_path.string() + ": " + why +
+                             (errno == ENAMETOOLONG ? " (the temporary name beside it is 14 bytes longer: shorten the name)"
+                              : errno == ENOENT     ? " (the folder is missing)"
+                                                    : ""));
+  }
   f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   f.flush();
   if (!f) throw std::runtime_error("cannot write " + final_path.string() + ": write failed (disk full?)");
