@@ -391,16 +391,19 @@ namespace {
 // else it is named after its file. Another tactres file (a layout or a
 // truth caught by a glob) is no design's, and is refused as before.
 MeasurementRecord read_design_file(const fs::path& f) {
-  MeasurementRecord failed;
-  failed.path = f;
-  failed.readable = false;
+  const auto failed = [&](const std::string& why, const std::string& design) {
+    MeasurementRecord r;
+    r.path = f;
+    r.readable = false;
+    r.design = design.empty() ? f.stem().string() : design;
+    r.problem = why + (design.empty() ? " (its design is unknown: the row is named after the file)" : "");
+    return r;
+  };
   nlohmann::json j;
   try {
     j = parse_json_text(read_file(f), f.string());
   } catch (const std::exception& e) {
-    failed.design = f.stem().string();
-    failed.problem = std::string(e.what()) + " (its design is unknown: the row is named after the file)";
-    return failed;
+    return failed(e.what(), "");
   }
   const std::string schema = j.is_object() && j.contains("schema") && j["schema"].is_string() ? j["schema"] : "";
   if (schema.rfind("tactres.", 0) == 0 && schema != kMeasurementSchema && schema != kMeasurementSchemaV1)
@@ -410,11 +413,8 @@ MeasurementRecord read_design_file(const fs::path& f) {
     r.path = f;
     return r;
   } catch (const std::exception& e) {
-    const bool named = j.is_object() && j.contains("design") && j["design"].is_string() &&
-                       !j["design"].get<std::string>().empty();
-    failed.design = named ? j["design"].get<std::string>() : f.stem().string();
-    failed.problem = std::string(e.what()) + (named ? "" : " (its design is unknown: the row is named after the file)");
-    return failed;
+    const bool named = j.is_object() && j.contains("design") && j["design"].is_string();
+    return failed(e.what(), named ? j["design"].get<std::string>() : "");
   }
 }
 
@@ -428,19 +428,11 @@ Comparison load_comparison(const std::vector<fs::path>& measurement_files, const
   if (measurement_files.empty())
     throw std::invalid_argument("no measurement JSONs given: list the designs' result JSONs before --reference");
 
-  std::error_code ec;
-  // Absolute first: weakly_canonical gives a relative path none of whose
-  // parts exists back unchanged ("nope.json" against "./nope.json").
-  auto identity = [&](const fs::path& p) {
-    const fs::path a = fs::absolute(p, ec);
-    const fs::path c = fs::weakly_canonical(ec ? p : a, ec);
-    return (ec ? a : c).lexically_normal();
-  };
-  const fs::path ref_id = identity(reference_file);
+  const fs::path ref_id = canonical_path(reference_file);
   std::vector<fs::path> files;
   std::map<fs::path, fs::path> seen;
   for (const fs::path& f : measurement_files) {
-    const fs::path id = identity(f);
+    const fs::path id = canonical_path(f);
     if (id == ref_id) continue;  // e.g. out/*.json includes the reference
     if (auto [it, added] = seen.emplace(id, f); !added)
       throw std::invalid_argument(fmt::format("{} is given twice (also as {}): each measurement counts once",

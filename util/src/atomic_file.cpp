@@ -150,6 +150,16 @@ void AtomicOutputSet::commit() {
   committed_ = true;
 }
 
+std::filesystem::path canonical_path(const std::filesystem::path& path) {
+  // Absolute first: of a relative path none of whose parts exists,
+  // weakly_canonical gives the path back as it was ("x.json" against
+  // "./x.json").
+  std::error_code ec;
+  const std::filesystem::path absolute = std::filesystem::absolute(path, ec);
+  const std::filesystem::path canonical = std::filesystem::weakly_canonical(ec ? path : absolute, ec);
+  return (ec ? absolute : canonical).lexically_normal();
+}
+
 namespace {
 
 // What identifies a file: its canonical path, and for one that exists its
@@ -160,13 +170,7 @@ struct FileKeys {
 };
 
 FileKeys keys_of(const std::filesystem::path& p) {
-  // Absolute first: of a relative path none of whose parts exists,
-  // weakly_canonical gives the path back as it was ("x.json" against
-  // "./x.json").
-  std::error_code ec;
-  const std::filesystem::path absolute = std::filesystem::absolute(p, ec);
-  const std::filesystem::path canonical = std::filesystem::weakly_canonical(ec ? p : absolute, ec);
-  FileKeys k{(ec ? absolute : canonical).lexically_normal().string(), std::nullopt};
+  FileKeys k{canonical_path(p).string(), std::nullopt};
   struct stat st {};
   if (::stat(p.c_str(), &st) == 0) k.inode = std::pair<dev_t, ino_t>(st.st_dev, st.st_ino);
   return k;

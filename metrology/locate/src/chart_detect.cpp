@@ -162,20 +162,16 @@ double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& 
 // Two elements always lie on a line.
 bool along_one_line(const ChartDetection& D, const std::vector<ChartElement>& elements) {
   if (elements.size() < 3) return true;
-  double mx = 0, my = 0;
-  for (const ChartElement& e : elements) {
-    const Vec2 c = 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
-    mx += c.x, my += c.y;
+  cv::Mat centres(int(elements.size()), 2, CV_64F);
+  for (size_t i = 0; i < elements.size(); ++i) {
+    const Vec2 c = 0.5 * (D.patterns[elements[i].h].center_px + D.patterns[elements[i].v].center_px);
+    centres.at<double>(int(i), 0) = c.x;
+    centres.at<double>(int(i), 1) = c.y;
   }
-  mx /= double(elements.size()), my /= double(elements.size());
-  double sxx = 0, sxy = 0, syy = 0;
-  for (const ChartElement& e : elements) {
-    const Vec2 c = 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
-    sxx += (c.x - mx) * (c.x - mx), sxy += (c.x - mx) * (c.y - my), syy += (c.y - my) * (c.y - my);
-  }
-  const double half_trace = 0.5 * (sxx + syy), d = std::sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
-  const double major = half_trace + d, minor = std::max(half_trace - d, 0.0);
-  return minor < 0.04 * major;  // spreads (standard deviations) under 1 : 5
+  cv::Mat covariance, mean, variances;  // the variances along the principal axes, largest first
+  cv::calcCovarMatrix(centres, covariance, mean, cv::COVAR_NORMAL | cv::COVAR_ROWS, CV_64F);
+  cv::eigen(covariance, variances);
+  return variances.at<double>(1) < 0.04 * variances.at<double>(0);  // spreads under 1 : 5
 }
 
 // The field's gradient: a grid search, then a finer one around the best;

@@ -65,6 +65,11 @@ class AtomicOutputSet {
   bool committed_ = false;
 };
 
+// One spelling of a path, whether or not the file exists: absolute, links
+// resolved as far as the path exists, "." and ".." removed. Two paths to
+// one file (relative and absolute, through a linked folder) get the same.
+std::filesystem::path canonical_path(const std::filesystem::path& path);
+
 // Refuses outputs that would destroy an input or each other: throws
 // std::invalid_argument when one of `outputs` is the same file as one of
 // `inputs` (by path, or by identity when both exist: a link) or as another
