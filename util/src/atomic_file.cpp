@@ -35,10 +35,10 @@ void write_bytes(const std::filesystem::path& temp_path, const std::filesystem::
   std::ofstream f(temp_path, std::ios::binary | std::ios::trunc);
   if (!f) {
     // The system's reason: a missing folder, no permission, or a name too
-    // long (the temporary name is 14 bytes longer than the final one).
+    // long for the file system.
     const std::string why = errno ? std::strerror(errno) : "the folder is missing or not writable";
     throw std::runtime_error("cannot write " + final_path.string() + ": " + why +
-                             (errno == ENAMETOOLONG ? " (the temporary name beside it is 14 bytes longer: shorten the name)"
+                             (errno == ENAMETOOLONG ? " (shorten the name)"
                               : errno == ENOENT     ? " (the folder is missing)"
                                                     : ""));
   }
@@ -48,15 +48,25 @@ void write_bytes(const std::filesystem::path& temp_path, const std::filesystem::
 }
 
 // ".name.<what>-XXXXXXXX.ext" beside `path`: hidden, unique, and with the
-// real extension last (so that format-sniffing writers work).
+// real extension last (so that format-sniffing writers work). The stem is
+// shortened, at a UTF-8 character's start, so that the name stays within
+// kMaxNameBytes wherever the final name does (a 250-byte name had no
+// temporary).
+constexpr size_t kMaxNameBytes = 255;  // NAME_MAX of Linux's file systems
 std::filesystem::path hidden_sibling(const std::filesystem::path& path, const char* what) {
+  const std::string extension = path.extension().string();
+  std::string stem = path.stem().string();
+  const size_t fixed_bytes = 3 + std::strlen(what) + 8 + extension.size();  // ". . -" + tag
+  size_t keep = std::min(stem.size(), kMaxNameBytes - std::min(kMaxNameBytes, fixed_bytes));
+  while (keep > 0 && keep < stem.size() && (static_cast<unsigned char>(stem[keep]) & 0xC0) == 0x80) --keep;
+  stem.resize(keep);
   std::string name = ".";  // appended piecewise: GCC 12 warns falsely on a chain of +
-  name += path.stem().string();
+  name += stem;
   name += ".";
   name += what;
   name += "-";
   name += random_tag();
-  name += path.extension().string();
+  name += extension;
   return path.has_parent_path() ? path.parent_path() / name : std::filesystem::path(name);
 }
 
@@ -76,7 +86,8 @@ void AtomicOutput::commit() {
   std::error_code ec;
   std::filesystem::rename(temp_path_, final_path_, ec);
   if (ec)
-    throw std::runtime_error("cannot write " + final_path_.string() + ": " + ec.message());
+    throw std::runtime_error("cannot write " + final_path_.string() + ": " + ec.message() +
+                             (ec == std::errc::filename_too_long ? " (shorten the name)" : ""));
   committed_ = true;
 }
 

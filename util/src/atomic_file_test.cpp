@@ -128,6 +128,27 @@ TEST_CASE("AtomicOutputSet: a staged removal goes at commit, and stays when the 
   CHECK(f.entries() == 1);
 }
 
+TEST_CASE("write_file_atomically: a name as long as the file system allows is written, and the temporary goes") {
+  Folder f;
+  // 255 bytes in all, with two-byte characters where the stem is cut.
+  std::string stem;
+  while (stem.size() + 2 <= 250) stem += "\xc3\xa9";  // U+00E9
+  stem.resize(250, 'x');
+  const fs::path path = f.path / (stem + ".json");
+  REQUIRE(path.filename().string().size() == 255);
+  write_file_atomically(path, "{}\n");
+  CHECK(fs::exists(path));
+  CHECK(f.entries() == 1);
+  // One byte more is the system's limit, and the message says to shorten it.
+  try {
+    write_file_atomically(f.path / (stem + "y.json"), "{}\n");
+    FAIL("a 256-byte name was written");
+  } catch (const std::runtime_error& e) {
+    CHECK(std::string(e.what()).find("shorten the name") != std::string::npos);
+  }
+  CHECK(f.entries() == 1);
+}
+
 TEST_CASE("file_sha1: the SHA-1 of the bytes, lower-case hex") {
   Folder f;
   write_file_atomically(f.path / "abc.txt", "abc");
