@@ -381,13 +381,9 @@ static void constrain(ceres::Problem& problem, double* x, const ProfileData& dat
   }
 }
 
-ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options) {
-  options.validate();
+// The fit in the data's own units (fit_profile scales them first).
+static ProfileFit fit_scaled(const ProfileData& data, const ProfileFitOptions& options) {
   ProfileFit out;
-  if (const char* problem = unfit_data(data)) {
-    out.problem = problem;
-    return out;
-  }
 
   GridModel model(data, options.signature, options.fit_shift);
   auto* cost = new ProfileCost(data, model, options.contrast_slope_per_mm);
@@ -468,6 +464,44 @@ ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options
   out.usable = std::isfinite(out.nu0_per_mm) && std::isfinite(out.beta) && std::isfinite(out.shift_mm) &&
                std::isfinite(out.var_log_nu0) && std::isfinite(out.var_beta) && std::isfinite(var_shift);
   if (!out.usable) out.problem = "the fit produced non-finite parameters";
+  return out;
+}
+
+// The power of two nearest the median magnitude of the fitted bins' values
+// (1 when there is none).
+static double typical_magnitude(const ProfileData& data) {
+  std::vector<double> magnitude;
+  for (int i = std::max(data.fit_begin, 0); i < std::min(data.fit_end, data.bin_count); ++i)
+    if (data.count[i] > 0 && std::isfinite(data.value[i]) && data.value[i] != 0)
+      magnitude.push_back(std::abs(data.value[i]));
+  if (magnitude.empty()) return 1.0;
+  std::nth_element(magnitude.begin(), magnitude.begin() + magnitude.size() / 2, magnitude.end());
+  return std::exp2(std::round(std::log2(magnitude[magnitude.size() / 2])));
+}
+
+// The fit runs on the values divided by their typical magnitude, and the
+// levels it finds are scaled back: Ceres' covariance is not invariant to
+// the data's units (its rank test compares the Jacobian's columns, and the
+// levels' columns scale with 1 / units where the blur's do not). A linear
+// float image scaled by 1e6 read every element "degenerate". A power of
+// two divides exactly.
+ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options) {
+  options.validate();
+  if (const char* problem = unfit_data(data)) {
+    ProfileFit out;
+    out.problem = problem;
+    return out;
+  }
+  const double unit = typical_magnitude(data);
+  if (unit == 1.0) return fit_scaled(data, options);
+  ProfileData in_units = data;
+  for (double& v : in_units.value) v /= unit;
+  for (double& v : in_units.sigma) v /= unit;
+  ProfileFit out = fit_scaled(in_units, options);
+  out.b0 *= unit;
+  out.b1_per_mm *= unit;
+  out.residual_rms *= unit;
+  out.signal_rms *= unit;
   return out;
 }
 

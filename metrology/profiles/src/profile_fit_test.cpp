@@ -279,3 +279,27 @@ TEST_CASE("no contrast is a graded failure, not a NaN") {
     CHECK_FALSE(fit.problem.empty());
   }
 }
+
+TEST_CASE("the fit does not depend on the data's units (a linear float image in any scale)") {
+  const Bars bars{0.07};
+  const double f = 1 / (2 * bars.w);
+  auto truth = [&](double u) { return 1.0 - 0.8 * bars.blurred(u, 0.6 * bars.w); };
+  std::mt19937_64 rng(11);
+  const ProfileData d = make_profile(bars, bars.w / 4, 8 * bars.w, 4 * bars.w, truth, 0.01, &rng);
+  ProfileFitOptions o;
+  o.contrast = -0.8;
+  const ProfileFit unit = fit_profile(d, o);
+  REQUIRE(unit.usable);
+  for (double scale : {1e6, 1e-6, 3e3}) {
+    ProfileData scaled = d;
+    for (double& v : scaled.value) v *= scale;
+    for (double& v : scaled.sigma) v *= scale;
+    const ProfileFit fit = fit_profile(scaled, o);
+    CAPTURE(scale);
+    REQUIRE(fit.usable);
+    CHECK(fit.transfer(f) == doctest::Approx(unit.transfer(f)).epsilon(1e-6));
+    CHECK(fit.transfer_sigma(f) == doctest::Approx(unit.transfer_sigma(f)).epsilon(1e-4));
+    CHECK(fit.b0 == doctest::Approx(scale * unit.b0).epsilon(1e-6));
+    CHECK(fit.residual_rms == doctest::Approx(scale * unit.residual_rms).epsilon(1e-4));
+  }
+}
