@@ -125,6 +125,36 @@ void fill_luminance(const float* pixels, bool bgr, const LoadOptions& options, c
         out.non_finite_pixels));
 }
 
+// Light cannot be negative. A float image whose darkest places lie below
+// zero by more than kMaxNegativeShare of its brightest holds an offset or
+// signed values, and every modulation would be read against the wrong
+// black (one with 0.5 subtracted read G4E1 where the original reads G6E4).
+// The places are 4x4-pixel means (two pyramid levels down), so that the
+// noise about a black that was subtracted right does not count.
+constexpr double kMaxNegativeShare = 0.05, kDarkestQuantile = 0.005;
+void refuse_negative_light(const cv::Mat& luminance, const std::string& what) {
+  cv::Mat places = luminance.clone();
+  cv::patchNaNs(places, 0.0);  // masked pixels are neither dark nor bright
+  for (int level = 0; level < 2 && std::min(places.cols, places.rows) >= 8; ++level) cv::pyrDown(places, places);
+  std::vector<float> v(places.begin<float>(), places.end<float>());
+  const auto quantile = [&](double q) {
+    const auto at = v.begin() + static_cast<std::ptrdiff_t>(q * (v.size() - 1));
+    std::nth_element(v.begin(), at, v.end());
+    return static_cast<double>(*at);
+  };
+  const double darkest = quantile(kDarkestQuantile), brightest = quantile(1 - kDarkestQuantile);
+  if (brightest <= 0)
+    throw UnusableInput(fmt::format("image {} holds no light: its values are 0 or below almost everywhere "
+                                    "(brightest places {:.3g}); export light as values of 0 and above",
+                                    what, brightest));
+  if (darkest < -kMaxNegativeShare * brightest)
+    throw UnusableInput(fmt::format(
+        "image {} holds negative light: its darkest places read {:.3g} against {:.3g} for its brightest. Linear "
+        "light cannot be negative: the file carries an offset (a dark frame subtracted twice?) or signed values; "
+        "shift it so that black is 0 and export it again",
+        what, darkest, brightest));
+}
+
 // The image library's message on one line (it joins its decoder's lines
 // with newlines, which would break the JSON's one-line problem, the
 // report's table and a CSV cell).
@@ -176,6 +206,7 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
                                  out.bits_per_sample);
   in->close();
   fill_luminance(pixels.data(), false, options, path.string(), out);
+  if (!out.integer_format) refuse_negative_light(out.luminance, path.string());
   return out;
 }
 

@@ -8,6 +8,7 @@
 
 #include <OpenImageIO/imageio.h>
 #include <doctest/doctest.h>
+#include <opencv2/core.hpp>
 
 #include "tactres/camera/image_io.h"
 
@@ -132,5 +133,35 @@ TEST_CASE("load_image: signed integers are offset so that the format's minimum i
     const LoadedImage img = load_image(write_grey(dir.path / "signed16.tif", OIIO::TypeDesc::INT16, code));
     CHECK(img.transfer.curve.name() == "linear");
     CHECK(img.luminance.at<float>(2, 2) == doctest::Approx(0.5 * (code + 1)).epsilon(1e-4));
+  }
+}
+
+TEST_CASE("load_image: a float image with negative light is refused, noise about a subtracted black is not") {
+  TempFolder dir;
+  // A 64x64 chart of bars: white 1 on black 0, with noise of 2 % of white.
+  cv::Mat chart(64, 64, CV_32F);
+  cv::RNG rng(5);
+  for (int y = 0; y < chart.rows; ++y)
+    for (int x = 0; x < chart.cols; ++x) chart.at<float>(y, x) = ((x / 8) % 2 ? 1.0f : 0.0f) + float(rng.gaussian(0.02));
+  const auto load_with = [&](double offset, double gain) {
+    const fs::path file = dir.path / "float.tif";
+    write_image(file, chart * gain + offset);
+    return load_image(file);
+  };
+  CHECK_NOTHROW(load_with(0.0, 1.0));       // noise dips below 0 about black: fine
+  CHECK_NOTHROW(load_with(0.0, 1e6));       // any unit of light
+  CHECK_NOTHROW(load_with(-0.02, 1.0));     // 2 % of white below: within the margin
+  try {
+    load_with(-0.5, 1.0);
+    FAIL("an offset of half the white was not refused");
+  } catch (const UnusableInput& e) {
+    CHECK(std::string(e.what()).find("negative light") != std::string::npos);
+    CHECK(std::string(e.what()).find("shift it so that black is 0") != std::string::npos);
+  }
+  try {
+    load_with(-0.1, -1.0);
+    FAIL("an image of negative values only was not refused");
+  } catch (const UnusableInput& e) {
+    CHECK(std::string(e.what()).find("holds no light") != std::string::npos);
   }
 }
