@@ -158,9 +158,20 @@ void refuse_negative_light(const cv::Mat& luminance, const std::string& what) {
 // The image library's message on one line (it joins its decoder's lines
 // with newlines, which would break the JSON's one-line problem, the
 // report's table and a CSV cell).
+// A decoder that failed on every strip after a truncation says so once a
+// strip: the first kMaxDecoderLines are kept, and the rest counted.
+constexpr int kMaxDecoderLines = 2;
 std::string one_line(std::string text) {
   while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
-  for (size_t k = text.find('\n'); k != std::string::npos; k = text.find('\n', k)) text.replace(k, 1, "; ");
+  int lines = 1;
+  for (size_t k = text.find('\n'); k != std::string::npos; k = text.find('\n', k)) {
+    if (++lines > kMaxDecoderLines) {
+      const auto more = std::count(text.begin() + static_cast<std::ptrdiff_t>(k), text.end(), '\n');
+      text = text.substr(0, k) + fmt::format("; and {} more such message(s)", more);
+      break;
+    }
+    text.replace(k, 1, "; ");
+  }
   return text;
 }
 
@@ -191,7 +202,11 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
                                             options.channel, path.string(), spec.nchannels));
 
   std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data()))
+  // A decoder may fill what it could not read and only say so: libtiff's
+  // "Read error on strip", libjpeg's "Premature end of JPEG file" (a
+  // truncated TIFF read its missing rows as black, with exit 0).
+  const bool read = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data());
+  if (!read || in->has_error())
     throw UnusableInput(fmt::format("cannot decode image {}: {} (the file is truncated or corrupt: copy or "
                                     "export it again)",
                                     path.string(), one_line(in->geterror())));

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include <OpenImageIO/imageio.h>
@@ -163,5 +165,28 @@ TEST_CASE("load_image: a float image with negative light is refused, noise about
     FAIL("an image of negative values only was not refused");
   } catch (const UnusableInput& e) {
     CHECK(std::string(e.what()).find("holds no light") != std::string::npos);
+  }
+}
+
+TEST_CASE("load_image: a TIFF or JPEG cut short is refused, not read with its missing rows black") {
+  TempFolder dir;
+  cv::Mat chart(256, 256, CV_8U);
+  for (int y = 0; y < chart.rows; ++y)
+    for (int x = 0; x < chart.cols; ++x) chart.at<uchar>(y, x) = static_cast<uchar>((x / 8 + y / 8) % 2 ? 220 : 30);
+  for (const char* name : {"chart.tif", "chart.jpg"}) {
+    CAPTURE(name);
+    const fs::path whole = dir.path / name;
+    write_image(whole, chart);
+    REQUIRE_NOTHROW(load_image(whole));
+    std::ifstream in(whole, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const fs::path cut = dir.path / (std::string("cut_") + name);
+    std::ofstream(cut, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() * 7 / 10));
+    try {
+      load_image(cut);
+      FAIL("a file cut to 70 % was read");
+    } catch (const UnusableInput& e) {
+      CHECK(std::string(e.what()).find("truncated or corrupt") != std::string::npos);
+    }
   }
 }
