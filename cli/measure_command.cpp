@@ -234,6 +234,10 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
       m = std::move(cm.measurement);
       chart = std::move(cm.detection);
     }
+    if (img.images_in_file > 1)
+      m.warnings.push_back(fmt::format("the file holds {} images (pages of a stack); only the first was measured: "
+                                       "save the one to measure on its own",
+                                       img.images_in_file));
   } catch (const UnusableInput& e) {
     m.usable = false;
     m.problem = e.what();

@@ -118,7 +118,9 @@ void fill_luminance(const float* pixels, bool bgr, const LoadOptions& options, c
   }
   const long long total = static_cast<long long>(out.width) * out.height;
   if (out.non_finite_pixels == total)
-    throw UnusableInput(fmt::format("image {} has no finite pixel (all NaN or Inf)", what));
+    throw UnusableInput(fmt::format("image {} has no finite pixel (all NaN or Inf): export the capture again, "
+                                    "with its values as numbers",
+                                    what));
   if (out.non_finite_pixels > 0 && options.non_finite == NonFinitePolicy::reject)
     throw UnusableInput(fmt::format(
         "image {} has {} non-finite pixel(s) (NaN/Inf); use --non-finite mask to measure around them", what,
@@ -181,7 +183,10 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
   options.validate();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
-    throw std::runtime_error(fmt::format("cannot read image {}: no such file", path.string()));
+    throw std::runtime_error(fmt::format("cannot read image {}: {}", path.string(),
+                                         std::filesystem::is_directory(path, ec)
+                                             ? "it is a folder, not an image file (give the files in it)"
+                                             : "no such file"));
   auto in = OIIO::ImageInput::open(path.string());
   if (!in)
     throw UnusableInput(fmt::format("cannot decode image {}: {} (is it a complete image file of a format "
@@ -219,6 +224,7 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
     for (float& v : pixels) v = 0.5f * (v + 1.0f);
   out.transfer = decide_transfer(options.transfer, colour_tag_of(path, *in, spec), out.integer_format,
                                  out.bits_per_sample);
+  while (out.images_in_file < 100000 && in->seek_subimage(out.images_in_file, 0)) ++out.images_in_file;
   in->close();
   fill_luminance(pixels.data(), false, options, path.string(), out);
   if (!out.integer_format) refuse_negative_light(out.luminance, path.string());

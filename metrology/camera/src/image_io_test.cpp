@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 #include <OpenImageIO/imageio.h>
 #include <doctest/doctest.h>
@@ -188,5 +189,32 @@ TEST_CASE("load_image: a TIFF or JPEG cut short is refused, not read with its mi
     } catch (const UnusableInput& e) {
       CHECK(std::string(e.what()).find("truncated or corrupt") != std::string::npos);
     }
+  }
+}
+
+TEST_CASE("load_image: a multi-page TIFF counts its pages, a folder is named as one") {
+  TempFolder dir;
+  const fs::path file = dir.path / "stack.tif";
+  {
+    auto out = OIIO::ImageOutput::create(file.string());
+    REQUIRE(out);
+    const OIIO::ImageSpec spec(8, 8, 1, OIIO::TypeDesc::UINT8);
+    const OIIO::ImageSpec specs[3] = {spec, spec, spec};
+    REQUIRE(out->open(file.string(), 3, specs));
+    const std::vector<unsigned char> pixels(64, 100);
+    for (int page = 0; page < 3; ++page) {
+      if (page > 0) REQUIRE(out->open(file.string(), spec, OIIO::ImageOutput::AppendSubimage));
+      REQUIRE(out->write_image(OIIO::TypeDesc::UINT8, pixels.data()));
+    }
+    REQUIRE(out->close());
+  }
+  CHECK(load_image(file).images_in_file == 3);
+  CHECK(load_image(write_grey(dir.path / "one.tif", OIIO::TypeDesc::UINT8, 0.5f)).images_in_file == 1);
+  fs::create_directories(dir.path / "folder.png");
+  try {
+    load_image(dir.path / "folder.png");
+    FAIL("a folder was read");
+  } catch (const std::runtime_error& e) {
+    CHECK(std::string(e.what()).find("it is a folder") != std::string::npos);
   }
 }

@@ -185,9 +185,14 @@ std::vector<Label> labels_in(const std::vector<cv::Rect>& boxes, const std::vect
 // For each candidate k, how many labels it explains (each label once), as
 // element numbers and as group numbers. On MIL-STD-150A charts an
 // element's number stands beside it, about one period (two bar widths)
-// tall; a group's number stands above its column, one to three periods of
-// the group's first element tall. A label is read as either, only where
-// its size and place allow it.
+// tall, and up to kMaxElementLabelPeriods in the finest groups, whose
+// numbers the printing does not shrink as far as their bars (dev_03's "1"
+// beside G7E1 is 2.6 periods tall); a group's number stands above its
+// column, one to three periods of the group's first element tall. A label
+// is read as either, only where its size and place allow it. Read only as
+// a group number, that "1" made a copy of dev_03 shifted by (3, 5) px
+// group -2, six groups off, on its own.
+constexpr double kMaxElementLabelPeriods = 3.0;
 struct Support {
   int element = 0, group = 0;
   int total() const { return element + group; }
@@ -206,7 +211,7 @@ std::map<int, Support> support(const ChartDetection& D, const std::vector<ChartE
     if (!nearest || best > 8) continue;
     const double size = l.char_height_px / nearest->period_px;
     if (l.char_height_px < kMinLabelCharPx) continue;
-    const bool as_element = l.value >= 1 && l.value <= 6 && size > 0.5 && size < 2.2 && best < 5;
+    const bool as_element = l.value >= 1 && l.value <= 6 && size > 0.5 && size < kMaxElementLabelPeriods && best < 5;
     // With the arrangement known, a group number stands only by a column's
     // top (indices 1 and 6 modulo 12) or by the even group's element 1.
     const int nearest_n12 = phase ? mod12(nearest->relative_index + *phase) : 0;

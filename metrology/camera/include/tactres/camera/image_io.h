@@ -48,6 +48,7 @@ struct LoadedImage {
   TransferDecision transfer;  // the curve applied, and why
   long long non_finite_pixels = 0;
   double saturation_level = 0;  // value at which integer pixels clip (1.0); 0 for float
+  int images_in_file = 1;       // a multi-page TIFF's pages; only the first is read
 };
 
 // Throws std::runtime_error (missing/unreadable file, exit 3) or
