@@ -117,7 +117,7 @@ std::optional<double> gate_value(const Limit& l) {
 // The one-line summary, the gate values and the exit code of a usable
 // measurement (`chart` is null in layout mode).
 void summarise(const Args& a, const Measurement& m, const ChartDetection* chart, const MeasureOptions& options,
-               Outcome& o) {
+               const LoadedImage& image, Outcome& o) {
   if (chart && chart->anchor == ChartAnchor::none && (a.require_h || a.require_v)) {
     o.exit_code = kExitUnusableInput;
     o.problem =
@@ -171,7 +171,10 @@ void summarise(const Args& a, const Measurement& m, const ChartDetection* chart,
                             spec);
   }
   // How the pixels were read, and what to check: part of every answer.
-  o.summary += fmt::format("; pixels {} ({})", m.transfer.curve.name(), m.transfer.reason);
+  o.summary += fmt::format("; pixels {} ({}{})", m.transfer.curve.name(), m.transfer.reason,
+                           image.turned_upright
+                               ? fmt::format("; turned as shown, Orientation tag {}", image.orientation)
+                               : "");
   if (poor > 0) o.summary += fmt::format("; {} ok element(s) fit poorly (see their notes)", poor);
   for (const std::string& w : m.warnings) o.summary += "\n  warning: " + w;
 }
@@ -205,6 +208,7 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
   lo.channel = a.channel;
   lo.transfer = transfer_from_option(a.transfer);
   lo.non_finite = non_finite_policy_from_string(a.non_finite);
+  lo.upright = layout == nullptr;  // chart mode: H and V as a person sees the file
 
   MeasurementContext ctx;
   ctx.image = image_path;
@@ -288,7 +292,7 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
     o.summary = fmt::format("{}: unusable: {}", o.design, m.problem);
     return o;
   }
-  summarise(a, m, chart ? &*chart : nullptr, options, o);
+  summarise(a, m, chart ? &*chart : nullptr, options, img, o);
   return o;
 }
 

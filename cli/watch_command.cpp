@@ -179,6 +179,7 @@ int run_watch(const Args& a) {
   LoadOptions load;
   load.channel = a.channel;
   load.transfer = transfer_from_option(a.transfer);
+  load.upright = !layout;  // chart mode: H and V as a person sees the file
   FocusElement focus_h, focus_v;
   if (a.focus_element.size() == 2) {
     if (a.focus_element[1] < 1 || a.focus_element[1] > 6)

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <vector>
 
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
@@ -157,6 +159,24 @@ void refuse_negative_light(const cv::Mat& luminance, const std::string& what) {
         what, darkest, brightest));
 }
 
+// The luminance turned as the file's Orientation tag says a person sees
+// it (OpenImageIO's reorient; masked NaN pixels move with the rest).
+void turn_upright(LoadedImage& image) {
+  OIIO::ImageSpec spec(image.width, image.height, 1, OIIO::TypeDesc::FLOAT);
+  spec.attribute("Orientation", image.orientation);
+  const OIIO::ImageBuf stored(spec, image.luminance.ptr<float>());
+  const OIIO::ImageBuf shown = OIIO::ImageBufAlgo::reorient(stored, 1);
+  if (shown.has_error()) throw std::runtime_error("cannot turn the image as its Orientation tag says: " +
+                                                  shown.geterror());
+  const OIIO::ImageSpec& s = shown.spec();
+  cv::Mat upright(s.height, s.width, CV_32F);
+  shown.get_pixels(shown.roi(), OIIO::TypeDesc::FLOAT, upright.ptr<float>());
+  image.luminance = upright;
+  image.width = s.width;
+  image.height = s.height;
+  image.turned_upright = true;
+}
+
 // The image library's message on one line (it joins its decoder's lines
 // with newlines, which would break the JSON's one-line problem, the
 // report's table and a CSV cell).
@@ -228,6 +248,8 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
   in->close();
   fill_luminance(pixels.data(), false, options, path.string(), out);
   if (!out.integer_format) refuse_negative_light(out.luminance, path.string());
+  out.orientation = std::clamp(spec.get_int_attribute("Orientation", 1), 1, 8);
+  if (options.upright && out.orientation != 1) turn_upright(out);
   return out;
 }
 

@@ -218,3 +218,34 @@ TEST_CASE("load_image: a multi-page TIFF counts its pages, a folder is named as 
     CHECK(std::string(e.what()).find("it is a folder") != std::string::npos);
   }
 }
+
+TEST_CASE("load_image: the Orientation tag turns the pixels as shown when asked (chart mode), not otherwise") {
+  TempFolder dir;
+  // Stored 3 x 2, value 1 + 10 y + x; Orientation 6: shown turned 90 degrees
+  // clockwise, 2 x 3, the stored left column along the shown top row.
+  const fs::path file = dir.path / "turned.tif";
+  {
+    auto out = OIIO::ImageOutput::create(file.string());
+    REQUIRE(out);
+    OIIO::ImageSpec spec(3, 2, 1, OIIO::TypeDesc::FLOAT);
+    spec.attribute("Orientation", 6);
+    REQUIRE(out->open(file.string(), spec));
+    const float pixels[6] = {1, 2, 3, 11, 12, 13};
+    REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, pixels));
+    REQUIRE(out->close());
+  }
+  const LoadedImage stored = load_image(file);
+  CHECK(stored.orientation == 6);
+  CHECK_FALSE(stored.turned_upright);
+  CHECK(stored.luminance.cols == 3);
+  LoadOptions upright;
+  upright.upright = true;
+  const LoadedImage shown = load_image(file, upright);
+  CHECK(shown.turned_upright);
+  REQUIRE(shown.luminance.cols == 2);
+  REQUIRE(shown.luminance.rows == 3);
+  CHECK(shown.width == 2);
+  CHECK(shown.luminance.at<float>(0, 0) == 11);  // stored (0, 1)
+  CHECK(shown.luminance.at<float>(0, 1) == 1);   // stored (0, 0)
+  CHECK(shown.luminance.at<float>(2, 0) == 13);  // stored (2, 1)
+}

@@ -58,7 +58,9 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
                   {"bits_per_sample", ctx.loaded->bits_per_sample},
                   {"transfer", transfer.curve.name()},
                   {"transfer_reason", transfer.reason},
-                  {"non_finite_pixels", ctx.loaded->non_finite_pixels}};
+                  {"non_finite_pixels", ctx.loaded->non_finite_pixels},
+                  {"orientation", ctx.loaded->orientation},
+                  {"turned_upright", ctx.loaded->turned_upright}};
   }
   if (m.transfer_check.checked)
     j["transfer_check"] = {{"applied", m.transfer_check.applied},

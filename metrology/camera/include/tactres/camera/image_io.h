@@ -34,6 +34,10 @@ struct LoadOptions {
   int channel = -1;  // -1: luminance; else 0-based channel index
   std::optional<TransferCurve> transfer;  // nullopt: auto (tags, then bit depth)
   NonFinitePolicy non_finite = NonFinitePolicy::mask;
+  // Turn the pixels as the file's Orientation tag (EXIF/TIFF, 1-8) says a
+  // person sees them: chart mode names H and V as shown. Layout mode keeps
+  // the stored grid, the sensor's, which its camera model describes.
+  bool upright = false;
   void validate() const;
 };
 
@@ -49,6 +53,8 @@ struct LoadedImage {
   long long non_finite_pixels = 0;
   double saturation_level = 0;  // value at which integer pixels clip (1.0); 0 for float
   int images_in_file = 1;       // a multi-page TIFF's pages; only the first is read
+  int orientation = 1;          // the file's Orientation tag (1: as stored)
+  bool turned_upright = false;  // the pixels were turned as it says (LoadOptions::upright)
 };
 
 // Throws std::runtime_error (missing/unreadable file, exit 3) or
