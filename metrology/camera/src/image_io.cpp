@@ -244,6 +244,9 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
     for (float& v : pixels) v = 0.5f * (v + 1.0f);
   out.transfer = decide_transfer(options.transfer, colour_tag_of(path, *in, spec), out.integer_format,
                                  out.bits_per_sample);
+  // The offset assumes where black lies, which the file does not say: the
+  // reason says so wherever the curve is named.
+  if (out.integer_format && spec.format.is_signed()) out.transfer.reason += "; signed, its minimum taken as black";
   while (out.images_in_file < 100000 && in->seek_subimage(out.images_in_file, 0)) ++out.images_in_file;
   in->close();
   fill_luminance(pixels.data(), false, options, path.string(), out);

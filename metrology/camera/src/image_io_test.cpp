@@ -136,6 +136,7 @@ TEST_CASE("load_image: signed integers are offset so that the format's minimum i
     const LoadedImage img = load_image(write_grey(dir.path / "signed16.tif", OIIO::TypeDesc::INT16, code));
     CHECK(img.transfer.curve.name() == "linear");
     CHECK(img.luminance.at<float>(2, 2) == doctest::Approx(0.5 * (code + 1)).epsilon(1e-4));
+    CHECK(img.transfer.reason.find("signed, its minimum taken as black") != std::string::npos);
   }
 }
 
