@@ -238,10 +238,6 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
       m = std::move(cm.measurement);
       chart = std::move(cm.detection);
     }
-    if (img.images_in_file > 1)
-      m.warnings.push_back(fmt::format("the file holds {} images (pages of a stack); only the first was measured: "
-                                       "save the one to measure on its own",
-                                       img.images_in_file));
   } catch (const UnusableInput& e) {
     m.usable = false;
     m.problem = e.what();
@@ -267,6 +263,12 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
     return o;
   }
 
+  // Said whether or not the first frame was usable: a stack whose first
+  // frame is blank is where the hint matters most.
+  if (img.more_frames)
+    m.warnings.push_back("the file holds more images of this size (frames of a stack); only the first was "
+                         "measured: save the frame to measure on its own");
+
   // Outputs, all or none (util/atomic_file.h); their folders are made. An
   // unusable capture still gets its JSON, which says why, so that reports
   // show it as failed instead of dropping it.
@@ -290,6 +292,7 @@ Outcome measure_one(const Args& a, const std::string& image_path, const TargetLa
     o.exit_code = kExitUnusableInput;
     o.problem = m.problem;
     o.summary = fmt::format("{}: unusable: {}", o.design, m.problem);
+    for (const std::string& w : m.warnings) o.summary += "\n  warning: " + w;
     return o;
   }
   summarise(a, m, chart ? &*chart : nullptr, options, img, o);

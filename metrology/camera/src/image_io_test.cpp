@@ -193,7 +193,7 @@ TEST_CASE("load_image: a TIFF or JPEG cut short is refused, not read with its mi
   }
 }
 
-TEST_CASE("load_image: a multi-page TIFF counts its pages, a folder is named as one") {
+TEST_CASE("load_image: a stack of frames says so, a thumbnail page does not, a folder is named as one") {
   TempFolder dir;
   const fs::path file = dir.path / "stack.tif";
   {
@@ -209,8 +209,21 @@ TEST_CASE("load_image: a multi-page TIFF counts its pages, a folder is named as 
     }
     REQUIRE(out->close());
   }
-  CHECK(load_image(file).images_in_file == 3);
-  CHECK(load_image(write_grey(dir.path / "one.tif", OIIO::TypeDesc::UINT8, 0.5f)).images_in_file == 1);
+  CHECK(load_image(file).more_frames);
+  CHECK_FALSE(load_image(write_grey(dir.path / "one.tif", OIIO::TypeDesc::UINT8, 0.5f)).more_frames);
+  const fs::path thumbnailed = dir.path / "thumbnailed.tif";
+  {
+    auto out = OIIO::ImageOutput::create(thumbnailed.string());
+    const OIIO::ImageSpec specs[2] = {OIIO::ImageSpec(8, 8, 1, OIIO::TypeDesc::UINT8),
+                                      OIIO::ImageSpec(4, 4, 1, OIIO::TypeDesc::UINT8)};
+    REQUIRE(out->open(thumbnailed.string(), 2, specs));
+    const std::vector<unsigned char> pixels(64, 100);
+    REQUIRE(out->write_image(OIIO::TypeDesc::UINT8, pixels.data()));
+    REQUIRE(out->open(thumbnailed.string(), specs[1], OIIO::ImageOutput::AppendSubimage));
+    REQUIRE(out->write_image(OIIO::TypeDesc::UINT8, pixels.data()));
+    REQUIRE(out->close());
+  }
+  CHECK_FALSE(load_image(thumbnailed).more_frames);
   fs::create_directories(dir.path / "folder.png");
   try {
     load_image(dir.path / "folder.png");
@@ -249,4 +262,50 @@ TEST_CASE("load_image: the Orientation tag turns the pixels as shown when asked 
   CHECK(shown.luminance.at<float>(0, 0) == 11);  // stored (0, 1)
   CHECK(shown.luminance.at<float>(0, 1) == 1);   // stored (0, 0)
   CHECK(shown.luminance.at<float>(2, 0) == 13);  // stored (2, 1)
+}
+
+TEST_CASE("load_image: every Orientation turns as the EXIF standard says; reserved values are as stored") {
+  TempFolder dir;
+  // Stored 3 x 2. Where shown pixel (x, y) comes from, by the standard's
+  // "row 0 / column 0" table (as ImageMagick's -auto-orient shows them;
+  // OpenImageIO 2.4's reorient swaps 5 and 7).
+  constexpr int W = 3, H = 2;
+  const float pixels[W * H] = {1, 2, 3, 11, 12, 13};
+  const auto stored_at = [&](int orientation, int x, int y) {
+    switch (orientation) {
+      case 2: return pixels[y * W + (W - 1 - x)];
+      case 3: return pixels[(H - 1 - y) * W + (W - 1 - x)];
+      case 4: return pixels[(H - 1 - y) * W + x];
+      case 5: return pixels[x * W + y];
+      case 6: return pixels[(H - 1 - x) * W + y];
+      case 7: return pixels[(H - 1 - x) * W + (W - 1 - y)];
+      case 8: return pixels[x * W + (W - 1 - y)];
+      default: return pixels[y * W + x];
+    }
+  };
+  for (int orientation : {1, 2, 3, 4, 5, 6, 7, 8, 9, 0}) {
+    CAPTURE(orientation);
+    const fs::path file = dir.path / ("o" + std::to_string(orientation) + ".tif");
+    OIIO::ImageSpec spec(W, H, 1, OIIO::TypeDesc::FLOAT);
+    spec.attribute("Orientation", orientation);
+    {
+      auto out = OIIO::ImageOutput::create(file.string());
+      REQUIRE(out);
+      REQUIRE(out->open(file.string(), spec));
+      REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, pixels));
+      REQUIRE(out->close());
+    }
+    LoadOptions upright;
+    upright.upright = true;
+    const LoadedImage shown = load_image(file, upright);
+    const bool reserved = orientation < 1 || orientation > 8;
+    const bool turned = orientation >= 5 && orientation <= 8;
+    CHECK(shown.orientation == (reserved ? 1 : orientation));
+    CHECK(shown.turned_upright == (orientation >= 2 && orientation <= 8));
+    REQUIRE(shown.luminance.cols == (turned ? H : W));
+    REQUIRE(shown.luminance.rows == (turned ? W : H));
+    for (int y = 0; y < shown.luminance.rows; ++y)
+      for (int x = 0; x < shown.luminance.cols; ++x)
+        CHECK(shown.luminance.at<float>(y, x) == stored_at(reserved ? 1 : orientation, x, y));
+  }
 }

@@ -52,7 +52,7 @@ struct LoadedImage {
   TransferDecision transfer;  // the curve applied, and why
   long long non_finite_pixels = 0;
   double saturation_level = 0;  // value at which integer pixels clip (1.0); 0 for float
-  int images_in_file = 1;       // a multi-page TIFF's pages; only the first is read
+  bool more_frames = false;     // the file holds more images of this size (a stack); only the first is read
   int orientation = 1;          // the file's Orientation tag (1: as stored)
   bool turned_upright = false;  // the pixels were turned as it says (LoadOptions::upright)
 };
