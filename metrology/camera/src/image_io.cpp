@@ -235,7 +235,7 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
   // of its messages, only a premature end is damage.
   (void)in->geterror();  // what opening said: the header, not the pixels
   const bool read = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data());
-  std::string read_error = in->has_error() ? in->geterror() : std::string();
+  const std::string read_error = in->has_error() ? in->geterror() : std::string();
   std::string lower = read_error;
   std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
   const bool jpeg = std::string(in->format_name()) == "jpeg";
