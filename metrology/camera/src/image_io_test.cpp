@@ -264,7 +264,7 @@ TEST_CASE("load_image: the Orientation tag turns the pixels as shown when asked 
   CHECK(shown.luminance.at<float>(2, 0) == 13);  // stored (2, 1)
 }
 
-TEST_CASE("load_image: every Orientation turns as the EXIF standard says; reserved values are as stored") {
+TEST_CASE("load_image: every Orientation turns as the EXIF standard says, reserved values read as stored") {
   TempFolder dir;
   // Stored 3 x 2. Where shown pixel (x, y) comes from, by the standard's
   // "row 0 / column 0" table (as ImageMagick's -auto-orient shows them;
