@@ -45,6 +45,36 @@ fs::path write_grey(const fs::path& file, OIIO::TypeDesc type, float code, const
 
 float srgb_decoded(float v) { return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f); }
 
+// A TIFF of one 8-bit grey image per size in `pages`, each of code 100.
+fs::path write_pages(const fs::path& file, const std::vector<int>& pages) {
+  auto out = OIIO::ImageOutput::create(file.string());
+  REQUIRE(out);
+  std::vector<OIIO::ImageSpec> specs;
+  for (int side : pages) specs.emplace_back(side, side, 1, OIIO::TypeDesc::UINT8);
+  REQUIRE(out->open(file.string(), static_cast<int>(specs.size()), specs.data()));
+  for (size_t page = 0; page < specs.size(); ++page) {
+    if (page > 0) REQUIRE(out->open(file.string(), specs[page], OIIO::ImageOutput::AppendSubimage));
+    const std::vector<unsigned char> pixels(size_t(specs[page].width) * specs[page].height, 100);
+    REQUIRE(out->write_image(OIIO::TypeDesc::UINT8, pixels.data()));
+  }
+  REQUIRE(out->close());
+  return file;
+}
+
+// Stored 3 x 2 float, value 1 + 10 y + x, with the given Orientation tag.
+constexpr int kOrientedW = 3, kOrientedH = 2;
+constexpr float kOrientedPixels[kOrientedW * kOrientedH] = {1, 2, 3, 11, 12, 13};
+fs::path write_oriented(const fs::path& file, int orientation) {
+  auto out = OIIO::ImageOutput::create(file.string());
+  REQUIRE(out);
+  OIIO::ImageSpec spec(kOrientedW, kOrientedH, 1, OIIO::TypeDesc::FLOAT);
+  spec.attribute("Orientation", orientation);
+  REQUIRE(out->open(file.string(), spec));
+  REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, kOrientedPixels));
+  REQUIRE(out->close());
+  return file;
+}
+
 }  // namespace
 
 TEST_CASE("transfer curves: names, options, round trips, and the odd extension below 0") {
@@ -195,35 +225,9 @@ TEST_CASE("load_image: a TIFF or JPEG cut short is refused, not read with its mi
 
 TEST_CASE("load_image: a stack of frames says so, a thumbnail page does not, a folder is named as one") {
   TempFolder dir;
-  const fs::path file = dir.path / "stack.tif";
-  {
-    auto out = OIIO::ImageOutput::create(file.string());
-    REQUIRE(out);
-    const OIIO::ImageSpec spec(8, 8, 1, OIIO::TypeDesc::UINT8);
-    const OIIO::ImageSpec specs[3] = {spec, spec, spec};
-    REQUIRE(out->open(file.string(), 3, specs));
-    const std::vector<unsigned char> pixels(64, 100);
-    for (int page = 0; page < 3; ++page) {
-      if (page > 0) REQUIRE(out->open(file.string(), spec, OIIO::ImageOutput::AppendSubimage));
-      REQUIRE(out->write_image(OIIO::TypeDesc::UINT8, pixels.data()));
-    }
-    REQUIRE(out->close());
-  }
-  CHECK(load_image(file).more_frames);
+  CHECK(load_image(write_pages(dir.path / "stack.tif", {8, 8, 8})).more_frames);
   CHECK_FALSE(load_image(write_grey(dir.path / "one.tif", OIIO::TypeDesc::UINT8, 0.5f)).more_frames);
-  const fs::path thumbnailed = dir.path / "thumbnailed.tif";
-  {
-    auto out = OIIO::ImageOutput::create(thumbnailed.string());
-    const OIIO::ImageSpec specs[2] = {OIIO::ImageSpec(8, 8, 1, OIIO::TypeDesc::UINT8),
-                                      OIIO::ImageSpec(4, 4, 1, OIIO::TypeDesc::UINT8)};
-    REQUIRE(out->open(thumbnailed.string(), 2, specs));
-    const std::vector<unsigned char> pixels(64, 100);
-    REQUIRE(out->write_image(OIIO::TypeDesc::UINT8, pixels.data()));
-    REQUIRE(out->open(thumbnailed.string(), specs[1], OIIO::ImageOutput::AppendSubimage));
-    REQUIRE(out->write_image(OIIO::TypeDesc::UINT8, pixels.data()));
-    REQUIRE(out->close());
-  }
-  CHECK_FALSE(load_image(thumbnailed).more_frames);
+  CHECK_FALSE(load_image(write_pages(dir.path / "thumbnailed.tif", {8, 4})).more_frames);
   fs::create_directories(dir.path / "folder.png");
   try {
     load_image(dir.path / "folder.png");
@@ -235,19 +239,9 @@ TEST_CASE("load_image: a stack of frames says so, a thumbnail page does not, a f
 
 TEST_CASE("load_image: the Orientation tag turns the pixels as shown when asked (chart mode), not otherwise") {
   TempFolder dir;
-  // Stored 3 x 2, value 1 + 10 y + x; Orientation 6: shown turned 90 degrees
-  // clockwise, 2 x 3, the stored left column along the shown top row.
-  const fs::path file = dir.path / "turned.tif";
-  {
-    auto out = OIIO::ImageOutput::create(file.string());
-    REQUIRE(out);
-    OIIO::ImageSpec spec(3, 2, 1, OIIO::TypeDesc::FLOAT);
-    spec.attribute("Orientation", 6);
-    REQUIRE(out->open(file.string(), spec));
-    const float pixels[6] = {1, 2, 3, 11, 12, 13};
-    REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, pixels));
-    REQUIRE(out->close());
-  }
+  // Orientation 6: shown turned 90 degrees clockwise, 2 x 3, the stored
+  // left column along the shown top row.
+  const fs::path file = write_oriented(dir.path / "turned.tif", 6);
   const LoadedImage stored = load_image(file);
   CHECK(stored.orientation == 6);
   CHECK_FALSE(stored.turned_upright);
@@ -266,11 +260,11 @@ TEST_CASE("load_image: the Orientation tag turns the pixels as shown when asked 
 
 TEST_CASE("load_image: every Orientation turns as the EXIF standard says, reserved values read as stored") {
   TempFolder dir;
-  // Stored 3 x 2. Where shown pixel (x, y) comes from, by the standard's
-  // "row 0 / column 0" table (as ImageMagick's -auto-orient shows them;
-  // OpenImageIO 2.4's reorient swaps 5 and 7).
-  constexpr int W = 3, H = 2;
-  const float pixels[W * H] = {1, 2, 3, 11, 12, 13};
+  // Where shown pixel (x, y) of write_oriented's image comes from, by the
+  // standard's "row 0 / column 0" table (as ImageMagick's -auto-orient
+  // shows them; OpenImageIO 2.4's reorient swaps 5 and 7).
+  constexpr int W = kOrientedW, H = kOrientedH;
+  const float* pixels = kOrientedPixels;
   const auto stored_at = [&](int orientation, int x, int y) {
     switch (orientation) {
       case 2: return pixels[y * W + (W - 1 - x)];
@@ -285,16 +279,7 @@ TEST_CASE("load_image: every Orientation turns as the EXIF standard says, reserv
   };
   for (int orientation : {1, 2, 3, 4, 5, 6, 7, 8, 9, 0}) {
     CAPTURE(orientation);
-    const fs::path file = dir.path / ("o" + std::to_string(orientation) + ".tif");
-    OIIO::ImageSpec spec(W, H, 1, OIIO::TypeDesc::FLOAT);
-    spec.attribute("Orientation", orientation);
-    {
-      auto out = OIIO::ImageOutput::create(file.string());
-      REQUIRE(out);
-      REQUIRE(out->open(file.string(), spec));
-      REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, pixels));
-      REQUIRE(out->close());
-    }
+    const fs::path file = write_oriented(dir.path / ("o" + std::to_string(orientation) + ".tif"), orientation);
     LoadOptions upright;
     upright.upright = true;
     const LoadedImage shown = load_image(file, upright);

@@ -47,8 +47,9 @@ class FrameSource {
 };
 
 // Opens SOURCE: /dev/video*, a folder, a pattern with * ? or [, one image
-// file (is_image_file_name: a sequence of one frame), or a video file. Throws std::runtime_error (exit 3) naming SOURCE and what to do when
-// it does not exist, holds no image, or cannot be opened.
+// file (is_image_file_name: a sequence of one frame), or a video file.
+// Throws std::runtime_error (exit 3) naming SOURCE and what to do when it
+// does not exist, holds no image, or cannot be opened.
 std::unique_ptr<FrameSource> open_frame_source(const std::string& source, const LoadOptions& load,
                                                const CameraSettings& camera = {});
 
