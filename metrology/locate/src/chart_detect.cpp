@@ -16,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "chart_detect_internal.h"
+#include "finite_pixels.h"
 #include "tactres/targets/usaf_series.h"
 
 namespace tactres {
@@ -64,7 +65,7 @@ namespace {
 // make no edges (a copy; the luminance itself when every pixel is finite,
 // as in most captures); nullopt if no pixel is finite.
 std::optional<cv::Mat> with_finite_pixels(const cv::Mat& luminance) {
-  if (cv::checkRange(luminance)) return luminance;
+  if (all_finite(luminance)) return luminance;
   cv::Mat img = luminance.clone();
   std::vector<float> finite;
   for (int y = 0; y < img.rows; y += 3)
