@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <tuple>
 #include <vector>
@@ -204,7 +205,8 @@ std::vector<BarPattern> find_triplets(const std::vector<Bar>& bars, bool light) 
   return out;
 }
 
-// The square root of the linear luminance (ImageScale::stabilised).
+// The square root of the linear luminance (the stabilised scale,
+// chart_detect_internal.h).
 cv::Mat stabilised(const cv::Mat& linear) {
   cv::Mat out;
   cv::sqrt(cv::max(linear, 0.0), out);
@@ -272,8 +274,29 @@ struct OctaveSearch {
   double margin_floor = 0;  // 1 % of its mean level
   std::vector<Bar> dark, light;
   size_t dark_elements = 0, light_elements = 0;
+  double light_span = 0;  // light_span() of the deepest octave
   size_t elements() const { return std::max(dark_elements, light_elements); }
 };
+
+// How far the light varies over a frame: the local light (the brightest
+// value within 5 px, the ground of a positive chart, the bars of a
+// negative one) at an octave 32-64 px on its short side, its 95th
+// percentile over its 5th. About 1 where the frame is lit evenly (the
+// generated chart 1.04, dev_14 1.1-1.7, the single-element 4K frames
+// 1.4-2.3); 7-130 under a Miniscope's vignetting, 20-80 through a fibre
+// bundle, beyond 100 outside a lit disc or half a chart 100x dimmer.
+double light_span(const cv::Mat& octave) {
+  cv::Mat local;
+  cv::dilate(octave, local, cv::Mat::ones(5, 5, CV_8U));
+  std::vector<float> v(local.begin<float>(), local.end<float>());
+  const auto at = [&](double q) {
+    auto it = v.begin() + static_cast<std::ptrdiff_t>(q * double(v.size() - 1));
+    std::nth_element(v.begin(), it, v.end());
+    return double(*it);
+  };
+  const double lo = at(0.05), hi = at(0.95);
+  return lo > 0 ? hi / lo : std::numeric_limits<double>::infinity();
+}
 
 // Margin: noise must not make bars, nor the faint texture of a clean
 // print. Each octave has its own noise (the pyramid smooths it). 2 sigma:
@@ -302,10 +325,11 @@ OctaveSearch search_octaves(cv::Mat img, double min_bar_px, double contrast_sigm
   OctaveSearch s;
   s.margin_floor = 0.01 * std::abs(cv::mean(img)[0]);
   s.img = std::move(img);
-  cv::Mat level_img = s.img;
+  cv::Mat level_img = s.img, deepest = s.img;
   for (int level = 1;; ++level) {
     cv::pyrDown(level_img, level_img);
     if (std::min(level_img.cols, level_img.rows) < 32) break;
+    deepest = level_img;
     std::vector<Bar> d, li;
     const double min_width_px = std::max(1.5, 0.8 * min_bar_px * std::exp2(-level));
     collect_bars_at(level_img, bar_margin(level_img, s.margin_floor), min_width_px, &d, &li, contrast_sigmas);
@@ -316,6 +340,7 @@ OctaveSearch search_octaves(cv::Mat img, double min_bar_px, double contrast_sigm
   }
   s.dark_elements = element_count(s.dark, false);
   s.light_elements = element_count(s.light, true);
+  s.light_span = light_span(deepest);
   return s;
 }
 
@@ -343,19 +368,24 @@ size_t elements_of(const PatternsFound& f) {
 
 }  // namespace
 
+// The square root equalises photon noise, so that one margin fits bars in
+// bright and dim light alike; where the light is even (light_span below
+// kEvenLightSpan: the median noise's margin is within 1.22x of each
+// place's own) it finds nothing the linear light misses, and its
+// full-resolution pass (a sixth of chart mode on the generated 1.5 Mpx
+// chart) is skipped, unless its octaves already show more elements.
+constexpr double kEvenLightSpan = 1.5;
+
 PatternsFound find_patterns(const cv::Mat& linear, double min_bar_px, double contrast_sigmas) {
   OctaveSearch in_linear = search_octaves(linear, min_bar_px, contrast_sigmas);
   OctaveSearch in_root = search_octaves(stabilised(linear), min_bar_px, contrast_sigmas);
-  // The square root's full-resolution pass only where its octaves already
-  // show more elements: unevenly lit bars show in the coarse elements too
-  // (dev_11: 10 elements against 5 in the octaves, 12 against 8 in all).
-  // Of the real captures none whose octaves show no more had more in all,
-  // and the pass was a sixth of chart mode on the 1.5 Mpx generated chart.
-  const bool root_may_show_more = in_root.elements() > in_linear.elements();
+  const bool root_may_show_more = !(in_linear.light_span < kEvenLightSpan) || in_root.elements() > in_linear.elements();
+  if (!root_may_show_more) in_root = {};  // its image, before the linear pass's buffers
   PatternsFound found = search_full_resolution(std::move(in_linear), min_bar_px, contrast_sigmas);
   if (!root_may_show_more) return found;
   PatternsFound in_root_found = search_full_resolution(std::move(in_root), min_bar_px, contrast_sigmas);
-  return elements_of(in_root_found) > elements_of(found) ? in_root_found : found;
+  if (elements_of(in_root_found) > elements_of(found)) return in_root_found;
+  return found;
 }
 
 Pairing pair_patterns(const std::vector<BarPattern>& P) {

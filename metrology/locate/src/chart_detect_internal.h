@@ -61,9 +61,11 @@ struct PatternsFound {
 // and its dim bars in the shadow were lost (9 elements found in the full
 // frame, 36 in the square root); in the square root, read noise in the
 // dark grows instead. find_patterns returns the scale that shows more
-// elements (linear on a tie); the square root is searched at full
-// resolution only where its octaves show more. Only where the bars are is
-// decided here; they are measured in linear light.
+// elements (linear on a tie). Where the frame is lit evenly the square
+// root finds nothing more, and it is searched at full resolution only
+// where the light varies (its span over the frame, chart_bars.cpp) or its
+// octaves show more. Only where the bars are is decided here; they are
+// measured in linear light.
 // `contrast_sigmas` > 0: a bar's margin is also at least that many robust
 // sigmas of the local contrast (the mottle a smoothed texture leaves).
 PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, double contrast_sigmas = 0);
