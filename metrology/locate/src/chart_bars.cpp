@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <limits>
 #include <map>
 #include <tuple>
 #include <vector>
@@ -205,8 +204,7 @@ std::vector<BarPattern> find_triplets(const std::vector<Bar>& bars, bool light) 
   return out;
 }
 
-// The square root of the linear luminance (the stabilised scale,
-// chart_detect_internal.h).
+// The square root of the linear luminance (ImageScale::stabilised).
 cv::Mat stabilised(const cv::Mat& linear) {
   cv::Mat out;
   cv::sqrt(cv::max(linear, 0.0), out);
@@ -266,50 +264,6 @@ size_t element_count(const std::vector<Bar>& bars, bool light) {
   return pair_patterns(find_triplets(deduplicate(bars), light)).elements.size();
 }
 
-// The octaves' bars of one image scale (linear or its square root,
-// chart_detect_internal.h), kept for its full-resolution pass, and how
-// many elements each polarity makes there.
-struct OctaveSearch {
-  cv::Mat img;  // the image at its scale
-  double margin_floor = 0;  // 1 % of its mean level
-  std::vector<Bar> dark, light;
-  size_t dark_elements = 0, light_elements = 0;
-  double light_span = 0;  // light_span() of the deepest octave
-  size_t elements() const { return std::max(dark_elements, light_elements); }
-};
-
-// How far the light varies over a frame: the local light (the brightest
-// value within 5 px, the ground of a positive chart, the bars of a
-// negative one) at an octave 32-64 px on its short side, its 95th
-// percentile over its 5th. About 1 where the frame is lit evenly (the
-// generated chart 1.04, dev_14 1.1-1.7, the single-element 4K frames
-// 1.4-2.3); 7-130 under a Miniscope's vignetting, 20-80 through a fibre
-// bundle, beyond 100 outside a lit disc or half a chart 100x dimmer.
-double light_span(const cv::Mat& octave) {
-  cv::Mat local;
-  cv::dilate(octave, local, cv::Mat::ones(5, 5, CV_8U));
-  std::vector<float> v(local.begin<float>(), local.end<float>());
-  const auto at = [&](double q) {
-    auto it = v.begin() + static_cast<std::ptrdiff_t>(q * double(v.size() - 1));
-    std::nth_element(v.begin(), it, v.end());
-    return double(*it);
-  };
-  const double lo = at(0.05), hi = at(0.95);
-  return lo > 0 ? hi / lo : std::numeric_limits<double>::infinity();
-}
-
-// Margin: noise must not make bars, nor the faint texture of a clean
-// print. Each octave has its own noise (the pyramid smooths it). 2 sigma:
-// white noise then marks 2.3 % of the pixels, whose rare 5-pixel elongated
-// clusters the three-bar geometry (three alike bars at a pitch of 2
-// widths, the middle one in the middle) rejects. On a speckled frame
-// (two-photon fluorescence, dev_16) the texture counts as noise, and at
-// the octave whose window spans the triplet its bars stand only 2-3 sigma
-// below the local mean: a 3 sigma margin found none.
-double bar_margin(const cv::Mat& level_img, double margin_floor) {
-  return std::max(2.0 * noise_sigma(level_img), margin_floor);
-}
-
 // Bar candidates of each polarity in `img` against the local mean over a
 // ladder of windows 7, 15, 30, 60, ... px, up to half the image. A window
 // of k px at full resolution and one of k/2 px an octave down a Gaussian
@@ -320,72 +274,57 @@ double bar_margin(const cv::Mat& level_img, double margin_floor) {
 // fibre bundle's honeycomb, 4.75-6.4 px on dev_01/02; laser speckle), which
 // cuts bars into fragments at full resolution: two octaves down a 5 px
 // period keeps 2 % of its amplitude while bars 6 px wide stay bars.
-// This is the first pass: the octaves.
-OctaveSearch search_octaves(cv::Mat img, double min_bar_px, double contrast_sigmas) {
-  OctaveSearch s;
-  s.margin_floor = 0.01 * std::abs(cv::mean(img)[0]);
-  s.img = std::move(img);
-  cv::Mat level_img = s.img, deepest = s.img;
+void collect_all_bars(const cv::Mat& img, double min_bar_px, double contrast_sigmas, std::vector<Bar>& dark,
+                      std::vector<Bar>& light) {
+  const double mean_level = cv::mean(img)[0];
+  // Margin: noise must not make bars, nor the faint texture of a clean
+  // print. Each octave has its own noise (the pyramid smooths it). 2 sigma:
+  // white noise then marks 2.3 % of the pixels, whose rare 5-pixel
+  // elongated clusters the three-bar geometry (three alike bars at a
+  // pitch of 2 widths, the middle one in the middle) rejects. On a
+  // speckled frame (two-photon fluorescence, dev_16) the texture counts as
+  // noise, and at the octave whose window spans the triplet its bars stand
+  // only 2-3 sigma below the local mean: a 3 sigma margin found none.
+  auto margin = [&](const cv::Mat& level_img) {
+    return std::max(2.0 * noise_sigma(level_img), 0.01 * std::abs(mean_level));
+  };
+  // The octaves down the pyramid first.
+  std::vector<Bar> coarse_dark, coarse_light;
+  cv::Mat level_img = img;
   for (int level = 1;; ++level) {
     cv::pyrDown(level_img, level_img);
     if (std::min(level_img.cols, level_img.rows) < 32) break;
-    deepest = level_img;
     std::vector<Bar> d, li;
-    const double min_width_px = std::max(1.5, 0.8 * min_bar_px * std::exp2(-level));
-    collect_bars_at(level_img, bar_margin(level_img, s.margin_floor), min_width_px, &d, &li, contrast_sigmas);
+    collect_bars_at(level_img, margin(level_img), std::max(1.5, 0.8 * min_bar_px * std::exp2(-level)), &d, &li,
+                    contrast_sigmas);
     to_full_resolution(d, level);
     to_full_resolution(li, level);
-    s.dark.insert(s.dark.end(), d.begin(), d.end());
-    s.light.insert(s.light.end(), li.begin(), li.end());
+    coarse_dark.insert(coarse_dark.end(), d.begin(), d.end());
+    coarse_light.insert(coarse_light.end(), li.begin(), li.end());
   }
-  s.dark_elements = element_count(s.dark, false);
-  s.light_elements = element_count(s.light, true);
-  s.light_span = light_span(deepest);
-  return s;
-}
-
-// The second pass, at full resolution, which costs three times the octaves
-// together; then the patterns of all the bars. A chart has one polarity.
-// Where the octaves show two or more elements of one polarity and none of
-// the other (every chart of tests/realdata that shows two), the other is
-// not searched there: a sixth of detecting the generated chart. One
-// element is not taken as evidence: a stray one of the wrong polarity must
-// not hide a chart too fine for the octaves.
-PatternsFound search_full_resolution(OctaveSearch s, double min_bar_px, double contrast_sigmas) {
-  const bool dark_only = s.dark_elements >= 2 && s.light_elements == 0;
-  const bool light_only = s.light_elements >= 2 && s.dark_elements == 0;
-  std::vector<Bar> dark, light;
-  collect_bars_at(s.img, bar_margin(s.img, s.margin_floor), min_bar_px * 0.8, light_only ? nullptr : &dark,
-                  dark_only ? nullptr : &light, contrast_sigmas);
-  dark.insert(dark.end(), s.dark.begin(), s.dark.end());
-  light.insert(light.end(), s.light.begin(), s.light.end());
-  return {find_triplets(deduplicate(std::move(dark)), false), find_triplets(deduplicate(std::move(light)), true)};
-}
-
-size_t elements_of(const PatternsFound& f) {
-  return std::max(pair_patterns(f.dark).elements.size(), pair_patterns(f.light).elements.size());
+  // Then full resolution, which costs three times the octaves together. A
+  // chart has one polarity. Where the octaves show two or more elements of
+  // one polarity and none of the other (every chart of tests/realdata that
+  // shows two), the other is not searched there: a sixth of detecting the
+  // generated chart. One element is not taken as evidence: a stray one of
+  // the wrong polarity must not hide a chart too fine for the octaves.
+  const size_t n_dark = element_count(coarse_dark, false), n_light = element_count(coarse_light, true);
+  const bool dark_only = n_dark >= 2 && n_light == 0, light_only = n_light >= 2 && n_dark == 0;
+  collect_bars_at(img, margin(img), min_bar_px * 0.8, light_only ? nullptr : &dark, dark_only ? nullptr : &light,
+                  contrast_sigmas);
+  dark.insert(dark.end(), coarse_dark.begin(), coarse_dark.end());
+  light.insert(light.end(), coarse_light.begin(), coarse_light.end());
 }
 
 }  // namespace
 
-// The square root equalises photon noise, so that one margin fits bars in
-// bright and dim light alike; where the light is even (light_span below
-// kEvenLightSpan: the median noise's margin is within 1.22x of each
-// place's own) it finds nothing the linear light misses, and its
-// full-resolution pass (a sixth of chart mode on the generated 1.5 Mpx
-// chart) is skipped, unless its octaves already show more elements.
-constexpr double kEvenLightSpan = 1.5;
-
-PatternsFound find_patterns(const cv::Mat& linear, double min_bar_px, double contrast_sigmas) {
-  OctaveSearch in_linear = search_octaves(linear, min_bar_px, contrast_sigmas);
-  OctaveSearch in_root = search_octaves(stabilised(linear), min_bar_px, contrast_sigmas);
-  const bool root_may_show_more = !(in_linear.light_span < kEvenLightSpan) || in_root.elements() > in_linear.elements();
-  if (!root_may_show_more) in_root = {};  // its image, before the linear pass's buffers
-  PatternsFound found = search_full_resolution(std::move(in_linear), min_bar_px, contrast_sigmas);
-  if (!root_may_show_more) return found;
-  PatternsFound in_root_found = search_full_resolution(std::move(in_root), min_bar_px, contrast_sigmas);
-  if (elements_of(in_root_found) > elements_of(found)) return in_root_found;
-  return found;
+PatternsFound find_patterns(const cv::Mat& linear, double min_bar_px, ImageScale scale, double contrast_sigmas) {
+  std::vector<Bar> dark, light;
+  const cv::Mat img = scale == ImageScale::stabilised ? stabilised(linear) : linear;
+  collect_all_bars(img, min_bar_px, contrast_sigmas, dark, light);
+  dark = deduplicate(std::move(dark));
+  light = deduplicate(std::move(light));
+  return {find_triplets(dark, false), find_triplets(light, true)};
 }
 
 Pairing pair_patterns(const std::vector<BarPattern>& P) {

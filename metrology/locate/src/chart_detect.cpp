@@ -480,9 +480,18 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   const cv::Mat& img = lattice_pitch_px ? smoothed : *finite;
   const double contrast_sigmas = lattice_pitch_px ? kLatticeMottleSigmas : 0;
   // The image scale and the polarity that show more elements
-  // (chart_detect_internal.h, find_patterns; a chart has one polarity).
-  const PatternsFound found = find_patterns(img, options.min_bar_px, contrast_sigmas);
+  // (chart_detect_internal.h, ImageScale; a chart has one polarity).
+  PatternsFound found = find_patterns(img, options.min_bar_px, ImageScale::linear, contrast_sigmas);
   Pairing ed = pair_patterns(found.dark), el = pair_patterns(found.light);
+  {
+    PatternsFound s = find_patterns(img, options.min_bar_px, ImageScale::stabilised, contrast_sigmas);
+    Pairing sd = pair_patterns(s.dark), sl = pair_patterns(s.light);
+    if (std::max(sd.elements.size(), sl.elements.size()) > std::max(ed.elements.size(), el.elements.size())) {
+      found = std::move(s);
+      ed = std::move(sd);
+      el = std::move(sl);
+    }
+  }
   D.light_bars = el.elements.size() > ed.elements.size();
   D.patterns = D.light_bars ? found.light : found.dark;
   Pairing& pairing = D.light_bars ? el : ed;

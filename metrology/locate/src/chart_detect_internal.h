@@ -49,7 +49,7 @@ inline int mod12(int n) { return ((n % 12) + 12) % 12; }
 struct PatternsFound {
   std::vector<BarPattern> dark, light;
 };
-// The bars are looked for in two scales of the image:
+// Which image the bars are looked for in:
 // - linear: the luminance as loaded;
 // - stabilised: its square root, where photon noise (whose variance grows
 //   with the level) is about the same at every level, so that one noise
@@ -60,15 +60,13 @@ struct PatternsFound {
 // In linear light the bright speckle of dev_11's lit side set the margin
 // and its dim bars in the shadow were lost (9 elements found in the full
 // frame, 36 in the square root); in the square root, read noise in the
-// dark grows instead. find_patterns returns the scale that shows more
-// elements (linear on a tie). Where the frame is lit evenly the square
-// root finds nothing more, and it is searched at full resolution only
-// where the light varies (its span over the frame, chart_bars.cpp) or its
-// octaves show more. Only where the bars are is decided here; they are
-// measured in linear light.
+// dark grows instead. detect_chart keeps the one that shows more elements.
+// Only where the bars are is decided here; they are measured in linear
+// light.
+enum class ImageScale { linear, stabilised };
 // `contrast_sigmas` > 0: a bar's margin is also at least that many robust
 // sigmas of the local contrast (the mottle a smoothed texture leaves).
-PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, double contrast_sigmas = 0);
+PatternsFound find_patterns(const cv::Mat& img, double min_bar_px, ImageScale scale, double contrast_sigmas = 0);
 
 // The row pitch (px) of a coherent fibre bundle's hexagonal core lattice
 // over the image (dev_01: 4.61, dev_02: 6.87), from the power spectrum of

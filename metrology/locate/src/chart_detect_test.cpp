@@ -2,6 +2,7 @@
 // targets module's area-coverage raster): positive and negative, rotated
 // by 90 and 180 degrees, mirrored; the anchors; no chart.
 #include <cmath>
+#include <string>
 
 #include <doctest/doctest.h>
 #include <opencv2/core.hpp>
@@ -176,12 +177,12 @@ cv::Mat lit_unevenly(cv::Mat chart, double noise_at_one) {
 TEST_CASE("chart detection: a chart lit unevenly under photon noise is found in the square root of its light") {
   // In linear light the lit half's noise sets the bar margin and the dim
   // half's bars fall under it; in the square root the noise is alike
-  // everywhere. The square root's full-resolution pass must run where the
-  // light varies, whether or not its octaves show more: the finer chart's
-  // dim half shows in no octave of either scale (run only where the
-  // octaves showed more, the pass found no chart there).
+  // everywhere. The square root must be searched at full resolution
+  // whether or not its octaves show more: the finer chart's dim half shows
+  // in no octave of either scale (searched only where the octaves showed
+  // more, it gave no chart).
   struct Case {
-    const char* what;
+    std::string what;
     int first_group, last_group;
     double px_per_mm, noise_at_one;
     int min_dim;  // found in the dim half: 7 and 4 (linear light alone: 0)
