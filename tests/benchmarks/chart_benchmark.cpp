@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
     }
     const double ratio = median(ratios);
     std::printf("%s (%dx%d, %s):\n", file.filename().c_str(), img.width, img.height, img.pixel_format.c_str());
-    std::printf("  decode %.1f ms | chart analysis %.1f ms (%.1fx decode%s; rounds %.1f-%.1fx) | first in the "
+    std::printf("  decode %.1f ms | chart analysis %.1f ms (%.2fx decode%s; rounds %.2f-%.2fx) | first in the "
                 "process %.1f ms\n",
                 1e3 * median(decode), 1e3 * median(total), ratio, ratio <= 3 ? ", goal met" : ", goal NOT met",
                 *std::min_element(ratios.begin(), ratios.end()), *std::max_element(ratios.begin(), ratios.end()),
