@@ -156,19 +156,19 @@ void summarise(const Args& a, const Measurement& m, const ChartDetection* chart,
                                     [&](const ElementResult& e) { return e.orientation == o; });
       return seen ? parts_text(p, relative) : std::string("no pattern in view");
     };
-    o.summary = fmt::format("{}{}: H {}; V {}; {} elements ok, {} graded; chart {}, anchor: {}{}{}",
+    o.summary = fmt::format("{}{}: H {}; V {}; {} element{} ok, {} graded; chart {}, anchor: {}{}{}",
                             relative ? "RELATIVE: " : "", o.design,
                             chart_parts(m.horizontal_parts, BarOrientation::horizontal_bars),
-                            chart_parts(m.vertical_parts, BarOrientation::vertical_bars), ok, other,
+                            chart_parts(m.vertical_parts, BarOrientation::vertical_bars), ok, ok == 1 ? "" : "s", other,
                             chart->light_bars ? "negative" : "positive",
                             chart_anchor_text(*chart),
                             relative ? " (group unknown: indices count from the largest element found, called G0E1)"
                                      : "",
                             spec);
   } else {
-    o.summary = fmt::format("{}: H {}; V {}; {} elements ok, {} graded{}{}", o.design, parts_text(m.horizontal_parts),
-                            parts_text(m.vertical_parts), ok, other, m.distortion_corrected ? "" : "; distortion NOT corrected",
-                            spec);
+    o.summary = fmt::format("{}: H {}; V {}; {} element{} ok, {} graded{}{}", o.design, parts_text(m.horizontal_parts),
+                            parts_text(m.vertical_parts), ok, ok == 1 ? "" : "s", other,
+                            m.distortion_corrected ? "" : "; distortion NOT corrected", spec);
   }
   // How the pixels were read, and what to check: part of every answer.
   o.summary += fmt::format("; pixels {} ({}{})", m.transfer.curve.name(), m.transfer.reason,
