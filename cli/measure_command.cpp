@@ -147,6 +147,7 @@ void summarise(const Args& a, const Measurement& m, const ChartDetection* chart,
   } else if (a.require_h || a.require_v) {
     spec = " [within spec]";
   }
+  const std::string counts = fmt::format("{} element{} ok, {} graded", ok, ok == 1 ? "" : "s", other);
   if (chart) {
     const bool relative = chart->anchor == ChartAnchor::none;
     // An orientation with no pattern at all (a single-pattern frame) is not
@@ -156,18 +157,18 @@ void summarise(const Args& a, const Measurement& m, const ChartDetection* chart,
                                     [&](const ElementResult& e) { return e.orientation == o; });
       return seen ? parts_text(p, relative) : std::string("no pattern in view");
     };
-    o.summary = fmt::format("{}{}: H {}; V {}; {} element{} ok, {} graded; chart {}, anchor: {}{}{}",
+    o.summary = fmt::format("{}{}: H {}; V {}; {}; chart {}, anchor: {}{}{}",
                             relative ? "RELATIVE: " : "", o.design,
                             chart_parts(m.horizontal_parts, BarOrientation::horizontal_bars),
-                            chart_parts(m.vertical_parts, BarOrientation::vertical_bars), ok, ok == 1 ? "" : "s", other,
+                            chart_parts(m.vertical_parts, BarOrientation::vertical_bars), counts,
                             chart->light_bars ? "negative" : "positive",
                             chart_anchor_text(*chart),
                             relative ? " (group unknown: indices count from the largest element found, called G0E1)"
                                      : "",
                             spec);
   } else {
-    o.summary = fmt::format("{}: H {}; V {}; {} element{} ok, {} graded{}{}", o.design, parts_text(m.horizontal_parts),
-                            parts_text(m.vertical_parts), ok, ok == 1 ? "" : "s", other,
+    o.summary = fmt::format("{}: H {}; V {}; {}{}{}", o.design, parts_text(m.horizontal_parts),
+                            parts_text(m.vertical_parts), counts,
                             m.distortion_corrected ? "" : "; distortion NOT corrected", spec);
   }
   // How the pixels were read, and what to check: part of every answer.

@@ -180,8 +180,11 @@ void turn_upright(LoadedImage& image) {
   image.turned_upright = true;
 }
 
-// A decoder that failed on every strip after a truncation says so once a
-// strip: the first kMaxDecoderLines are kept, and the rest counted.
+// The image library's message on one line (it joins its decoder's lines
+// with newlines, which would break the JSON's one-line problem, the
+// report's table and a CSV cell). A decoder that failed on every strip
+// after a truncation says so once a strip: the first kMaxDecoderLines are
+// kept, and the rest counted.
 constexpr int kMaxDecoderLines = 2;
 std::string one_line(std::string text) {
   while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
@@ -195,6 +198,17 @@ std::string one_line(std::string text) {
     text.replace(k, 1, "; ");
   }
   return text;
+}
+
+// Whether what the decoder said while reading the pixels means they are
+// damaged. libjpeg also warns about what it passes over harmlessly
+// ("extraneous bytes before marker"): of its messages, only a premature end
+// is damage. Every other decoder's error is.
+bool pixels_damaged(const std::string& read_error, bool jpeg) {
+  if (read_error.empty() || !jpeg) return !read_error.empty();
+  std::string lower = read_error;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  return lower.find("premature end") != std::string::npos;
 }
 
 }  // namespace
@@ -229,17 +243,12 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
   std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
   // A decoder may fill what it could not read and only say so: libtiff's
   // "Read error on strip", libjpeg's "Premature end of JPEG file" (a
-  // truncated TIFF read its missing rows as black, with exit 0). libjpeg
-  // also warns about what it passes over harmlessly (an unknown JFIF
-  // revision when the header is read, "extraneous bytes before marker"):
-  // of its messages, only a premature end is damage.
-  (void)in->geterror();  // what opening said: the header, not the pixels
+  // truncated TIFF read its missing rows as black, with exit 0;
+  // pixels_damaged).
+  (void)in->geterror();  // what opening said (an unknown JFIF revision): the header, not the pixels
   const bool read = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data());
   const std::string read_error = in->has_error() ? in->geterror() : std::string();
-  std::string lower = read_error;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
-  const bool jpeg = std::string(in->format_name()) == "jpeg";
-  if (!read || (!read_error.empty() && (!jpeg || lower.find("premature end") != std::string::npos)))
+  if (!read || pixels_damaged(read_error, std::string(in->format_name()) == "jpeg"))
     throw UnusableInput(fmt::format("cannot decode image {}: {} (the file is truncated or corrupt: copy or "
                                     "export it again)",
                                     path.string(), one_line(read_error)));
