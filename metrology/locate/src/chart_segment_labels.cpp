@@ -150,13 +150,30 @@ std::vector<cv::Mat> label_inks(const LabelWindow& win, const ElementFrame& f, c
   cv::Mat ink;
   cv::resize(fine, ink, {win.nx, win.ny}, 0, 0, cv::INTER_AREA);
   ink.convertTo(ink, CV_32F, 1.0 / 255);
+  // Only pixels within a kernel's reach of the ink can be nonzero: each
+  // blur is taken on that part of the window (a one-digit number fills a
+  // third of it). Filtered as a region of the whole window, it reads the
+  // zeros around it and reflects at the window's edges alone, so every
+  // pixel comes out as blurring the whole window would make it.
+  const cv::Rect inked = cv::boundingRect(cv::Mat(ink > 0));
   std::vector<cv::Mat> blurred;
   for (const double sigma : kBlursPx) {
     // Each blur into a buffer of its own: into a header of `ink` it would
     // blur ink itself, in place (it once did: the blurs compounded, 0, 1,
     // 2.2, 3.7 and 5.5 px).
-    cv::Mat b = sigma > 0 ? cv::Mat() : ink;
-    if (sigma > 0) cv::GaussianBlur(ink, b, {0, 0}, sigma);
+    if (sigma == 0) {
+      blurred.push_back(ink);
+      continue;
+    }
+    cv::Mat b = cv::Mat::zeros(ink.size(), CV_32F);
+    // The kernel's size GaussianBlur itself takes for a float image (8 sigma + 1, odd).
+    const int ksize = static_cast<int>(std::lround(sigma * 8 + 1)) | 1, reach = ksize / 2;
+    const cv::Rect part =
+        (inked + cv::Size(2 * reach, 2 * reach) - cv::Point(reach, reach)) & cv::Rect(0, 0, ink.cols, ink.rows);
+    if (!part.empty()) {
+      cv::Mat region = b(part);
+      cv::GaussianBlur(ink(part), region, {ksize, ksize}, sigma);
+    }
     blurred.push_back(b);
   }
   return blurred;
