@@ -185,23 +185,29 @@ std::vector<IdealBox> ideal_boxes(const IndexedArtwork& artwork, const Strip& s,
 // within-bin spreads the noise models come from, and the moments of a plane
 // in (u, v) per bin. u is w here (ScaleWarp).
 struct BinSums {
-  std::vector<double> sum, sum2, sum_u, sum_uu;
-  // Along-bar moments: the light varies along the bars too (vignetting,
-  // illumination), which is not noise; the noise estimate removes it.
-  std::vector<double> sum_v, sum_vv, sum_xv;
-  std::vector<double> sum_xu, sum_uv;  // for the per-bin plane in (u, v)
-  explicit BinSums(int n)
-      : sum(n), sum2(n), sum_u(n), sum_uu(n), sum_v(n), sum_vv(n), sum_xv(n), sum_xu(n), sum_uv(n) {}
+  struct Bin {
+    double sum = 0, sum2 = 0, sum_u = 0, sum_uu = 0;
+    // Along-bar moments: the light varies along the bars too (vignetting,
+    // illumination), which is not noise; the noise estimate removes it.
+    double sum_v = 0, sum_vv = 0, sum_xv = 0;
+    double sum_xu = 0, sum_uv = 0;  // for the per-bin plane in (u, v)
+  };
+  // One bin's sums side by side: every pixel adds to all nine, and nine
+  // arrays cost a cache line each per pixel.
+  std::vector<Bin> bins;
+  explicit BinSums(int n) : bins(n) {}
+  const Bin& operator[](int b) const { return bins[b]; }
   void add(int b, double value, double u, double v) {
-    sum[b] += value;
-    sum2[b] += value * value;
-    sum_u[b] += u;
-    sum_uu[b] += u * u;
-    sum_v[b] += v;
-    sum_vv[b] += v * v;
-    sum_xv[b] += value * v;
-    sum_xu[b] += value * u;
-    sum_uv[b] += u * v;
+    Bin& s = bins[b];
+    s.sum += value;
+    s.sum2 += value * value;
+    s.sum_u += u;
+    s.sum_uu += u * u;
+    s.sum_v += v;
+    s.sum_vv += v * v;
+    s.sum_xv += value * v;
+    s.sum_xu += value * u;
+    s.sum_uv += u * v;
   }
 };
 
@@ -297,9 +303,9 @@ double set_bin_means(ProfileData& d, const BinSums& sums, int pixels_used) {
   for (int b = 0; b < d.bin_count; ++b) {
     d.u_mean_mm[b] = d.bin_center_mm(b);
     if (d.count[b] == 0) continue;
-    d.value[b] = sums.sum[b] / d.count[b];
-    d.u_mean_mm[b] = sums.sum_u[b] / d.count[b];
-    spread += std::max(0.0, sums.sum_uu[b] - sums.sum_u[b] * sums.sum_u[b] / d.count[b]);
+    d.value[b] = sums[b].sum / d.count[b];
+    d.u_mean_mm[b] = sums[b].sum_u / d.count[b];
+    spread += std::max(0.0, sums[b].sum_uu - sums[b].sum_u * sums[b].sum_u / d.count[b]);
     level += std::abs(d.value[b]);
     ++level_n;
   }
@@ -329,7 +335,7 @@ std::vector<std::pair<double, int>> flattest_first(const ProfileData& d, const s
 void refer_to_mid_strip(ProfileData& d, const BinSums& sums, const std::vector<Sample>& samples,
                         const std::vector<int>& filled, double half_v_mm) {
   std::vector<double> bin_v(d.bin_count, 0);
-  for (int b : filled) bin_v[b] = sums.sum_v[b] / d.count[b];
+  for (int b : filled) bin_v[b] = sums[b].sum_v / d.count[b];
   // P(u) interpolated between the filled bins around u. A sample sits in
   // its own bin b, so its neighbours are b's previous and next filled bins
   // (looked up once per bin, not searched per sample).
@@ -365,7 +371,7 @@ void refer_to_mid_strip(ProfileData& d, const BinSums& sums, const std::vector<S
   const double g_sigma = den > 0 && samples.size() > 2 ? std::sqrt(rss / (samples.size() - 2) / den) : 0.0;
   const bool significant = std::abs(g_per_mm) > 4 * g_sigma && std::abs(g_per_mm) * half_v_mm > 2e-3;
   if (significant && std::abs(g_per_mm) * half_v_mm < 0.5)
-    for (int b : filled) d.value[b] /= 1.0 + g_per_mm * sums.sum_v[b] / d.count[b];
+    for (int b : filled) d.value[b] /= 1.0 + g_per_mm * sums[b].sum_v / d.count[b];
 }
 
 // Noise model var(level) = a + b * level (read noise plus shot noise, the
@@ -387,17 +393,17 @@ void fit_noise_models(ProfileData& d, const BinSums& sums, const std::vector<std
   for (size_t k = 0; k < (flatness.size() + 1) / 2; ++k) {
     const int b = flatness[k].second;
     const double n = d.count[b];
-    const double sxx = sums.sum2[b] - sums.sum[b] * sums.sum[b] / n;
-    const double svv = sums.sum_vv[b] - sums.sum_v[b] * sums.sum_v[b] / n;
-    const double sxv = sums.sum_xv[b] - sums.sum[b] * sums.sum_v[b] / n;
+    const double sxx = sums[b].sum2 - sums[b].sum * sums[b].sum / n;
+    const double svv = sums[b].sum_vv - sums[b].sum_v * sums[b].sum_v / n;
+    const double sxv = sums[b].sum_xv - sums[b].sum * sums[b].sum_v / n;
     // Residual sum of squares after a straight line in v.
     const double explained_v = svv > 0 ? sxv * sxv / svv : 0.0;
     spread_line.add(n - 2, d.value[b], std::max(0.0, sxx - explained_v) / (n - 2));
     if (n < 5) continue;
     // After a plane in (u, v): RSS = Sxx - c^T M^-1 c, M the (u, v) scatter, c = (Sxu, Sxv).
-    const double suu = sums.sum_uu[b] - sums.sum_u[b] * sums.sum_u[b] / n;
-    const double suv = sums.sum_uv[b] - sums.sum_u[b] * sums.sum_v[b] / n;
-    const double sxu = sums.sum_xu[b] - sums.sum[b] * sums.sum_u[b] / n;
+    const double suu = sums[b].sum_uu - sums[b].sum_u * sums[b].sum_u / n;
+    const double suv = sums[b].sum_uv - sums[b].sum_u * sums[b].sum_v / n;
+    const double sxu = sums[b].sum_xu - sums[b].sum * sums[b].sum_u / n;
     const double det = suu * svv - suv * suv;
     const double explained_uv = det > 1e-12 * (suu * svv + 1e-300)
                                     ? (svv * sxu * sxu - 2 * suv * sxu * sxv + suu * sxv * sxv) / det
