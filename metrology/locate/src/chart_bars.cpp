@@ -224,30 +224,36 @@ double local_contrast_sigma(const cv::Mat& diff) {
 }
 
 // The local means of `img` over k x k windows (BORDER_REFLECT, as cv::blur)
-// for each k of `windows`, from one integral image of `img` padded for the
-// largest: cv::blur sums every window size anew (2.1 ms a window on a
-// 1.5 Mpx frame, with both image scales and the octaves 11 of them a
-// frame); one integral (1 ms) serves every window at 0.5 ms each. Both sum
-// in double, so the means agree to float rounding. `padded` and `sums`
-// are the caller's buffers (a fresh image-sized buffer costs its page
-// faults).
-void local_means(const cv::Mat& img, const std::vector<int>& windows, std::vector<cv::Mat>& means,
-                 cv::Mat& padded, cv::Mat& sums) {
+// for each k of `windows`, into `means`: cv::blur sums every window size
+// anew (2.1 ms a window on a 1.5 Mpx frame, with both image scales and the
+// octaves 11 of them a frame); one integral image serves every window.
+// Band by band of kBandRows rows (each band's integral with the rows the
+// windows reach beyond it): a whole frame's integral in double (12 MB at
+// 1.5 Mpx) cost its page faults in every process's first frame, 5 ms more
+// than it saved there, where a band's stays in cache. The border is
+// BORDER_REFLECT at the image's edges only (copyMakeBorder reads a band's
+// neighbour rows from the image itself). Sums in double, as cv::blur's.
+constexpr int kBandRows = 64;
+void local_means(const cv::Mat& img, const std::vector<int>& windows, std::vector<cv::Mat>& means) {
   const int pad = *std::max_element(windows.begin(), windows.end()) / 2;
-  cv::copyMakeBorder(img, padded, pad, pad, pad, pad, cv::BORDER_REFLECT);
-  cv::integral(padded, sums, CV_64F);
   means.resize(windows.size());
-  for (size_t i = 0; i < windows.size(); ++i) {
-    const int k = windows[i], r = k / 2;
-    const double inv_area = 1.0 / (double(k) * k);
-    means[i].create(img.size(), CV_32F);
-    for (int y = 0; y < img.rows; ++y) {
-      // sums(j, i) is the sum of padded rows < j and columns < i.
-      const double* top = sums.ptr<double>(y + pad - r) + (pad - r);
-      const double* bottom = sums.ptr<double>(y + pad + r + 1) + (pad - r);
-      float* out = means[i].ptr<float>(y);
-      for (int x = 0; x < img.cols; ++x)
-        out[x] = static_cast<float>((bottom[x + k] - bottom[x] - top[x + k] + top[x]) * inv_area);
+  for (cv::Mat& m : means) m.create(img.size(), CV_32F);
+  cv::Mat padded, sums;  // one band's, reused
+  for (int y0 = 0; y0 < img.rows; y0 += kBandRows) {
+    const int y1 = std::min(img.rows, y0 + kBandRows);
+    cv::copyMakeBorder(img.rowRange(y0, y1), padded, pad, pad, pad, pad, cv::BORDER_REFLECT);
+    cv::integral(padded, sums, CV_64F);
+    for (size_t i = 0; i < windows.size(); ++i) {
+      const int k = windows[i], r = k / 2;
+      const double inv_area = 1.0 / (double(k) * k);
+      for (int y = y0; y < y1; ++y) {
+        // sums(j, i): the sum of the band's padded rows < j and columns < i.
+        const double* top = sums.ptr<double>(y - y0 + pad - r) + (pad - r);
+        const double* bottom = sums.ptr<double>(y - y0 + pad + r + 1) + (pad - r);
+        float* out = means[i].ptr<float>(y);
+        for (int x = 0; x < img.cols; ++x)
+          out[x] = static_cast<float>((bottom[x + k] - bottom[x] - top[x + k] + top[x]) * inv_area);
+      }
     }
   }
 }
@@ -260,10 +266,9 @@ void collect_bars_at(const cv::Mat& img, double margin, double min_width_px, std
                      std::vector<Bar>* light, double contrast_sigmas) {
   std::vector<int> windows{7};
   if (15 <= std::min(img.cols, img.rows) / 2) windows.push_back(15);
-  // Buffers for the means, the integral and the mask, shared by the windows.
   std::vector<cv::Mat> means;
-  cv::Mat padded, sums, mask;
-  local_means(img, windows, means, padded, sums);
+  cv::Mat mask;  // shared by the windows
+  local_means(img, windows, means);
   for (cv::Mat& diff : means) {
     cv::subtract(img, diff, diff);
     const double m = contrast_sigmas > 0 ? std::max(margin, contrast_sigmas * local_contrast_sigma(diff)) : margin;
