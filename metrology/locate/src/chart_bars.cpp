@@ -223,41 +223,6 @@ double local_contrast_sigma(const cv::Mat& diff) {
   return robust_sigma(v);
 }
 
-// The local means of `img` over k x k windows (BORDER_REFLECT, as cv::blur)
-// for each k of `windows`, into `means`: cv::blur sums every window size
-// anew (2.1 ms a window on a 1.5 Mpx frame, with both image scales and the
-// octaves 11 of them a frame); one integral image serves every window.
-// Band by band of kBandRows rows (each band's integral with the rows the
-// windows reach beyond it): a whole frame's integral in double (12 MB at
-// 1.5 Mpx) cost its page faults in every process's first frame, 5 ms more
-// than it saved there, where a band's stays in cache. The border is
-// BORDER_REFLECT at the image's edges only (copyMakeBorder reads a band's
-// neighbour rows from the image itself). Sums in double, as cv::blur's.
-constexpr int kBandRows = 64;
-void local_means(const cv::Mat& img, const std::vector<int>& windows, std::vector<cv::Mat>& means) {
-  const int pad = *std::max_element(windows.begin(), windows.end()) / 2;
-  means.resize(windows.size());
-  for (cv::Mat& m : means) m.create(img.size(), CV_32F);
-  cv::Mat padded, sums;  // one band's, reused
-  for (int y0 = 0; y0 < img.rows; y0 += kBandRows) {
-    const int y1 = std::min(img.rows, y0 + kBandRows);
-    cv::copyMakeBorder(img.rowRange(y0, y1), padded, pad, pad, pad, pad, cv::BORDER_REFLECT);
-    cv::integral(padded, sums, CV_64F);
-    for (size_t i = 0; i < windows.size(); ++i) {
-      const int k = windows[i], r = k / 2;
-      const double inv_area = 1.0 / (double(k) * k);
-      for (int y = y0; y < y1; ++y) {
-        // sums(j, i): the sum of the band's padded rows < j and columns < i.
-        const double* top = sums.ptr<double>(y - y0 + pad - r) + (pad - r);
-        const double* bottom = sums.ptr<double>(y - y0 + pad + r + 1) + (pad - r);
-        float* out = means[i].ptr<float>(y);
-        for (int x = 0; x < img.cols; ++x)
-          out[x] = static_cast<float>((bottom[x + k] - bottom[x] - top[x + k] + top[x]) * inv_area);
-      }
-    }
-  }
-}
-
 // Bar candidates in `img` at windows 7 and 15 px: dark ones into `dark`,
 // light ones into `light` (a null pointer: that polarity is not searched).
 // With `contrast_sigmas` > 0 the margin is at least that many robust
@@ -352,6 +317,40 @@ void collect_all_bars(const cv::Mat& img, double min_bar_px, double contrast_sig
 }
 
 }  // namespace
+
+// local_means (chart_detect_internal.h): cv::blur sums every window size
+// anew (2.1 ms a window on a 1.5 Mpx frame, with both image scales and the
+// octaves 11 of them a frame); one integral image serves every window.
+// Band by band of kBandRows rows (each band's integral with the rows the
+// windows reach beyond it): a whole frame's integral in double (12 MB at
+// 1.5 Mpx) cost its page faults in every process's first frame, 5 ms more
+// than it saved there, where a band's stays in cache. The border is
+// BORDER_REFLECT at the image's edges only (copyMakeBorder reads a band's
+// neighbour rows from the image itself). Sums in double, as cv::blur's.
+void local_means(const cv::Mat& img, const std::vector<int>& windows, std::vector<cv::Mat>& means) {
+  constexpr int kBandRows = 64;
+  const int pad = *std::max_element(windows.begin(), windows.end()) / 2;
+  means.resize(windows.size());
+  for (cv::Mat& m : means) m.create(img.size(), CV_32F);
+  cv::Mat padded, sums;  // one band's, reused
+  for (int y0 = 0; y0 < img.rows; y0 += kBandRows) {
+    const int y1 = std::min(img.rows, y0 + kBandRows);
+    cv::copyMakeBorder(img.rowRange(y0, y1), padded, pad, pad, pad, pad, cv::BORDER_REFLECT);
+    cv::integral(padded, sums, CV_64F);
+    for (size_t i = 0; i < windows.size(); ++i) {
+      const int k = windows[i], r = k / 2;
+      const double inv_area = 1.0 / (double(k) * k);
+      for (int y = y0; y < y1; ++y) {
+        // sums(j, i): the sum of the band's padded rows < j and columns < i.
+        const double* top = sums.ptr<double>(y - y0 + pad - r) + (pad - r);
+        const double* bottom = sums.ptr<double>(y - y0 + pad + r + 1) + (pad - r);
+        float* out = means[i].ptr<float>(y);
+        for (int x = 0; x < img.cols; ++x)
+          out[x] = static_cast<float>((bottom[x + k] - bottom[x] - top[x + k] + top[x]) * inv_area);
+      }
+    }
+  }
+}
 
 PatternsFound find_patterns(const cv::Mat& linear, double min_bar_px, ImageScale scale, double contrast_sigmas) {
   std::vector<Bar> dark, light;

@@ -78,3 +78,26 @@ TEST_CASE("run_components: diagonal neighbours join, a one-pixel gap does not, a
   CHECK(same_partition(mask, &components));
   CHECK(components == 4);
 }
+
+// The integral image's box means (local_means) against cv::blur's: band
+// edges (64 rows), images shorter than a band or than a window, and both
+// windows at once.
+TEST_CASE("local_means: cv::blur's means (BORDER_REFLECT), band by band") {
+  cv::RNG rng(5);
+  for (const cv::Size size : {cv::Size(5, 3), cv::Size(40, 17), cv::Size(203, 64), cv::Size(131, 65), cv::Size(97, 300)}) {
+    CAPTURE(size);
+    cv::Mat img(size, CV_32F);
+    rng.fill(img, cv::RNG::UNIFORM, 0.0, 1000.0);
+    const std::vector<int> windows{7, 15};
+    std::vector<cv::Mat> means;
+    local_means(img, windows, means);
+    REQUIRE(means.size() == 2);
+    for (size_t i = 0; i < windows.size(); ++i) {
+      cv::Mat expected;
+      cv::blur(img, expected, {windows[i], windows[i]}, {-1, -1}, cv::BORDER_REFLECT);
+      CAPTURE(windows[i]);
+      REQUIRE(means[i].size() == size);
+      CHECK(cv::norm(means[i], expected, cv::NORM_INF) <= 1e-3);  // float rounding of values up to 1000
+    }
+  }
+}
