@@ -231,11 +231,10 @@ void collect_bars_at(const cv::Mat& img, double margin, double min_width_px, std
                      std::vector<Bar>* light, double contrast_sigmas) {
   std::vector<int> windows{7};
   if (15 <= std::min(img.cols, img.rows) / 2) windows.push_back(15);
-  std::vector<cv::Mat> means;
+  std::vector<cv::Mat> contrast;
   cv::Mat mask;  // shared by the windows
-  local_means(img, windows, means);
-  for (cv::Mat& diff : means) {
-    cv::subtract(img, diff, diff);
+  local_contrast(img, windows, contrast);
+  for (const cv::Mat& diff : contrast) {
     const double m = contrast_sigmas > 0 ? std::max(margin, contrast_sigmas * local_contrast_sigma(diff)) : margin;
     if (dark) {
       cv::compare(diff, -m, mask, cv::CMP_LT);
@@ -318,7 +317,7 @@ void collect_all_bars(const cv::Mat& img, double min_bar_px, double contrast_sig
 
 }  // namespace
 
-// local_means (chart_detect_internal.h): cv::blur sums every window size
+// local_contrast (chart_detect_internal.h): cv::blur sums every window size
 // anew (2.1 ms a window on a 1.5 Mpx frame, with both image scales and the
 // octaves 11 of them a frame); one integral image serves every window.
 // Band by band of kBandRows rows (each band's integral with the rows the
@@ -326,12 +325,14 @@ void collect_all_bars(const cv::Mat& img, double min_bar_px, double contrast_sig
 // 1.5 Mpx) cost its page faults in every process's first frame, 5 ms more
 // than it saved there, where a band's stays in cache. The border is
 // BORDER_REFLECT at the image's edges only (copyMakeBorder reads a band's
-// neighbour rows from the image itself). Sums in double, as cv::blur's.
-void local_means(const cv::Mat& img, const std::vector<int>& windows, std::vector<cv::Mat>& means) {
+// neighbour rows from the image itself). Sums in double, as cv::blur's;
+// the mean is rounded to float before it is subtracted, as cv::blur's
+// output would be.
+void local_contrast(const cv::Mat& img, const std::vector<int>& windows, std::vector<cv::Mat>& contrast) {
   constexpr int kBandRows = 64;
   const int pad = *std::max_element(windows.begin(), windows.end()) / 2;
-  means.resize(windows.size());
-  for (cv::Mat& m : means) m.create(img.size(), CV_32F);
+  contrast.resize(windows.size());
+  for (cv::Mat& c : contrast) c.create(img.size(), CV_32F);
   cv::Mat padded, sums;  // one band's, reused
   for (int y0 = 0; y0 < img.rows; y0 += kBandRows) {
     const int y1 = std::min(img.rows, y0 + kBandRows);
@@ -344,9 +345,10 @@ void local_means(const cv::Mat& img, const std::vector<int>& windows, std::vecto
         // sums(j, i): the sum of the band's padded rows < j and columns < i.
         const double* top = sums.ptr<double>(y - y0 + pad - r) + (pad - r);
         const double* bottom = sums.ptr<double>(y - y0 + pad + r + 1) + (pad - r);
-        float* out = means[i].ptr<float>(y);
+        const float* in = img.ptr<float>(y);
+        float* out = contrast[i].ptr<float>(y);
         for (int x = 0; x < img.cols; ++x)
-          out[x] = static_cast<float>((bottom[x + k] - bottom[x] - top[x + k] + top[x]) * inv_area);
+          out[x] = in[x] - static_cast<float>((bottom[x + k] - bottom[x] - top[x + k] + top[x]) * inv_area);
       }
     }
   }

@@ -1,7 +1,8 @@
 // The run-based component labelling of chart detection (run_components,
 // chart_detect_internal.h) against OpenCV's: the same 8-connected
 // partition of random masks of every density, widths that are and are not
-// multiples of 8, and the shapes that test the diagonal rule.
+// multiples of 8, and the shapes that test the diagonal rule; and the local
+// contrast of its binarisation (local_contrast) against cv::blur.
 #include <map>
 #include <random>
 #include <tuple>
@@ -79,25 +80,27 @@ TEST_CASE("run_components: diagonal neighbours join, a one-pixel gap does not, a
   CHECK(components == 4);
 }
 
-// The integral image's box means (local_means) against cv::blur's: band
+// The image less its integral image's box means (local_contrast) against
+// the image less cv::blur's: band
 // edges (64 rows), images shorter than a band or than a window, and both
 // windows at once.
-TEST_CASE("local_means: cv::blur's means (BORDER_REFLECT), band by band") {
+TEST_CASE("local_contrast: the image less cv::blur's means (BORDER_REFLECT), band by band") {
   cv::RNG rng(5);
   for (const cv::Size size : {cv::Size(5, 3), cv::Size(40, 17), cv::Size(203, 64), cv::Size(131, 65), cv::Size(97, 300)}) {
     CAPTURE(size);
     cv::Mat img(size, CV_32F);
     rng.fill(img, cv::RNG::UNIFORM, 0.0, 1000.0);
     const std::vector<int> windows{7, 15};
-    std::vector<cv::Mat> means;
-    local_means(img, windows, means);
-    REQUIRE(means.size() == 2);
+    std::vector<cv::Mat> contrast;
+    local_contrast(img, windows, contrast);
+    REQUIRE(contrast.size() == 2);
     for (size_t i = 0; i < windows.size(); ++i) {
       cv::Mat expected;
       cv::blur(img, expected, {windows[i], windows[i]}, {-1, -1}, cv::BORDER_REFLECT);
+      expected = img - expected;
       CAPTURE(windows[i]);
-      REQUIRE(means[i].size() == size);
-      CHECK(cv::norm(means[i], expected, cv::NORM_INF) <= 1e-3);  // float rounding of values up to 1000
+      REQUIRE(contrast[i].size() == size);
+      CHECK(cv::norm(contrast[i], expected, cv::NORM_INF) <= 1e-3);  // float rounding of values up to 1000
     }
   }
 }

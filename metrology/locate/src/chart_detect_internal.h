@@ -93,11 +93,11 @@ struct MaskRun {
 // pixel: unmarked stretches are skipped 8 bytes at a time.
 std::vector<int> run_components(const cv::Mat& mask, std::vector<MaskRun>& runs);
 
-// The means of a CV_32F image over k x k windows, k odd, for each k of
+// A CV_32F image less its means over k x k windows, k odd, for each k of
 // `windows` (BORDER_REFLECT at the image's edges, as cv::blur), into
-// `means` (CV_32F, the image's size): one integral image a band of rows
+// `contrast` (CV_32F, the image's size): one integral image a band of rows
 // serves every window.
-void local_means(const cv::Mat& img, const std::vector<int>& windows, std::vector<cv::Mat>& means);
+void local_contrast(const cv::Mat& img, const std::vector<int>& windows, std::vector<cv::Mat>& contrast);
 
 // Elements: perpendicular patterns of the same period side by side, each
 // pattern in one element at most (the best-fitting pairs first).
