@@ -81,15 +81,19 @@ TEST_CASE("run_components: diagonal neighbours join, a one-pixel gap does not, a
 }
 
 // The image less its integral image's box means (local_contrast) against
-// the image less cv::blur's: band
-// edges (64 rows), images shorter than a band or than a window, and both
-// windows at once.
+// the image less cv::blur's: band edges (64 rows), images shorter than a
+// band or than a window, one row, both windows at once, and a region of a
+// larger image (both read the pixels around it, as OpenCV's filters do).
 TEST_CASE("local_contrast: the image less cv::blur's means (BORDER_REFLECT), band by band") {
   cv::RNG rng(5);
-  for (const cv::Size size : {cv::Size(5, 3), cv::Size(40, 17), cv::Size(203, 64), cv::Size(131, 65), cv::Size(97, 300)}) {
+  cv::Mat parent(320, 240, CV_32F);
+  rng.fill(parent, cv::RNG::UNIFORM, 0.0, 1000.0);
+  for (const cv::Size size : {cv::Size(5, 3), cv::Size(40, 17), cv::Size(203, 64), cv::Size(131, 65),
+                              cv::Size(97, 300), cv::Size(60, 1), cv::Size(0, 0)}) {
     CAPTURE(size);
-    cv::Mat img(size, CV_32F);
-    rng.fill(img, cv::RNG::UNIFORM, 0.0, 1000.0);
+    // Size (0, 0): a region of `parent`, 2 px in from its left and top edges.
+    cv::Mat img = size.area() == 0 ? parent(cv::Rect(2, 2, 150, 90)) : cv::Mat(size, CV_32F);
+    if (size.area() > 0) rng.fill(img, cv::RNG::UNIFORM, 0.0, 1000.0);
     const std::vector<int> windows{7, 15};
     std::vector<cv::Mat> contrast;
     local_contrast(img, windows, contrast);
@@ -99,7 +103,7 @@ TEST_CASE("local_contrast: the image less cv::blur's means (BORDER_REFLECT), ban
       cv::blur(img, expected, {windows[i], windows[i]}, {-1, -1}, cv::BORDER_REFLECT);
       expected = img - expected;
       CAPTURE(windows[i]);
-      REQUIRE(contrast[i].size() == size);
+      REQUIRE(contrast[i].size() == img.size());
       CHECK(cv::norm(contrast[i], expected, cv::NORM_INF) <= 1e-3);  // float rounding of values up to 1000
     }
   }

@@ -94,9 +94,9 @@ struct MaskRun {
 std::vector<int> run_components(const cv::Mat& mask, std::vector<MaskRun>& runs);
 
 // A CV_32F image less its means over k x k windows, k odd, for each k of
-// `windows` (BORDER_REFLECT at the image's edges, as cv::blur), into
-// `contrast` (CV_32F, the image's size): one integral image a band of rows
-// serves every window.
+// `windows` (at least one), into `contrast` (CV_32F, the image's size):
+// BORDER_REFLECT at the edges of the image, or of the image it is a region
+// of, as cv::blur. One integral image a band of rows serves every window.
 void local_contrast(const cv::Mat& img, const std::vector<int>& windows, std::vector<cv::Mat>& contrast);
 
 // Elements: perpendicular patterns of the same period side by side, each
