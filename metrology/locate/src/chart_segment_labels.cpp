@@ -166,11 +166,11 @@ std::vector<cv::Mat> label_inks(const LabelWindow& win, const ElementFrame& f, c
       continue;
     }
     cv::Mat b = cv::Mat::zeros(ink.size(), CV_32F);
-    // The kernel's size GaussianBlur itself takes for a float image (8 sigma + 1, odd).
-    const int ksize = static_cast<int>(std::lround(sigma * 8 + 1)) | 1, reach = ksize / 2;
-    const cv::Rect part =
-        (inked + cv::Size(2 * reach, 2 * reach) - cv::Point(reach, reach)) & cv::Rect(0, 0, ink.cols, ink.rows);
-    if (!part.empty()) {
+    if (!inked.empty()) {  // no ink (a candidate drawn out of the window): zeros, nothing to blur
+      // The kernel's size GaussianBlur itself takes for a float image (8 sigma + 1, odd).
+      const int ksize = static_cast<int>(std::lround(sigma * 8 + 1)) | 1, reach = ksize / 2;
+      const cv::Rect part =
+          (inked + cv::Size(2 * reach, 2 * reach) - cv::Point(reach, reach)) & cv::Rect(0, 0, ink.cols, ink.rows);
       cv::Mat region = b(part);
       cv::GaussianBlur(ink(part), region, {ksize, ksize}, sigma);
     }
