@@ -22,34 +22,6 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The tactres binary under test: the build's, or TACTRES_REFERENCE_TACTRES
-// (to try another build by hand).
-std::string tactres_binary() {
-  const char* b = std::getenv("TACTRES_REFERENCE_TACTRES");
-  return b && *b ? std::string(b) : std::string(TACTRES_BINARY);
-}
-
-int run_shell(const std::string& cmd) {
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-// The blur whose limit falls at the geometric middle between an element and
-// the next one (a factor 2^(1/12) above the first): there m_true is 0.13 on
-// the last resolved element and 0.076 on the next, so neither sits on the
-// threshold.
-double sigma_for_limit_between(int group, int element) {
-  const double f_lp_per_mm = std::pow(2.0, group + (element - 1) / 6.0 + 1.0 / 12.0);
-  return std::sqrt(std::log(10.0) / (2 * M_PI * M_PI)) / f_lp_per_mm;
-}
-
 MeasuredLimit limit_from(const nlohmann::json& limits, const std::string& orientation) {
   MeasuredLimit L;
   if (!limits.is_object() || !limits.contains(orientation)) return L;
@@ -99,6 +71,28 @@ Cache& cache() {
 }
 
 }  // namespace
+
+std::string tactres_binary() {
+  const char* b = std::getenv("TACTRES_REFERENCE_TACTRES");
+  return b && *b ? std::string(b) : std::string(TACTRES_BINARY);
+}
+
+int run_shell(const std::string& cmd) {
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+double sigma_for_limit_between(int group, int element) {
+  const double f_lp_per_mm = std::pow(2.0, group + (element - 1) / 6.0 + 1.0 / 12.0);
+  return std::sqrt(std::log(10.0) / (2 * M_PI * M_PI)) / f_lp_per_mm;
+}
 
 TempDir::TempDir(const std::string& tag) {
   std::random_device rd;

@@ -22,6 +22,18 @@ struct TempDir {
   fs::path path;
 };
 
+// The tactres binary under test: the build's, or TACTRES_REFERENCE_TACTRES
+// (to try another build by hand).
+std::string tactres_binary();
+// std::system's exit code (-1 when the command did not exit).
+int run_shell(const std::string& cmd);
+std::string read_text(const fs::path& p);
+// The blur whose limit falls at the geometric middle between an element and
+// the next one (a factor 2^(1/12) above the first): there m_true is 0.13 on
+// the last resolved element and 0.076 on the next, so neither sits on the
+// threshold.
+double sigma_for_limit_between(int group, int element);
+
 // `tactres generate --out DIR` with default options, once per process.
 const fs::path& default_layout_path();
 const Layout& default_layout();

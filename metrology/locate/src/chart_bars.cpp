@@ -363,41 +363,101 @@ PatternsFound find_patterns(const cv::Mat& linear, double min_bar_px, ImageScale
   return {find_triplets(dark, false), find_triplets(light, true)};
 }
 
-Pairing pair_patterns(const std::vector<BarPattern>& P) {
-  struct Candidate {
-    double cost;
-    int h, v;
-  };
-  std::vector<Candidate> cands;
+namespace {
+
+// A pattern pair that may be one element, judged by its geometry alone:
+// perpendicular, 2.5-5.5 periods apart, the H pattern's bars running along
+// the line to its V partner.
+struct PairCandidate {
+  int h = 0, v = 0;
+  double ln_ratio = 0;         // ln(H period / V period)
+  double separation_cost = 0;  // how far the distance is from 3.5 periods
+};
+
+std::vector<PairCandidate> pair_candidates(const std::vector<BarPattern>& P, double max_ln_ratio) {
+  std::vector<PairCandidate> out;
   for (size_t i = 0; i < P.size(); ++i)
     for (size_t j = 0; j < P.size(); ++j) {
       if (i == j) continue;
       const BarPattern &h = P[i], &v = P[j];
-      if (!similar(h.period_px, v.period_px, 0.15)) continue;
+      const double ln_ratio = std::log(h.period_px / v.period_px);
+      if (std::abs(ln_ratio) >= max_ln_ratio) continue;
       if (std::abs(dot(h.bar_dir, v.bar_dir)) > std::sin(15 * M_PI / 180)) continue;
       const Vec2 d = v.center_px - h.center_px;
       const double dist = norm(d), period = 0.5 * (h.period_px + v.period_px);
       if (dist < 2.5 * period || dist > 5.5 * period) continue;
-      // The H pattern's bars run along the line to its V partner.
       if (std::abs(dot(d, h.bar_dir)) < std::cos(15 * M_PI / 180) * dist) continue;
-      cands.push_back({std::abs(std::log(h.period_px / v.period_px)) + 0.05 * std::abs(dist / period - 3.5),
-                       static_cast<int>(i), static_cast<int>(j)});
+      out.push_back({static_cast<int>(i), static_cast<int>(j), ln_ratio, 0.05 * std::abs(dist / period - 3.5)});
     }
-  std::sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
+  return out;
+}
+
+// Elements from the candidates whose period ratio lies within 0.15 of
+// exp(ln_ratio) on the log scale (1 seen face on, where an element's two
+// patterns match within a few per cent): the best-fitting pairs first,
+// each pattern in one element at most.
+Pairing pair_at_ratio(const std::vector<BarPattern>& P, const std::vector<PairCandidate>& candidates,
+                      double ln_ratio) {
+  std::vector<std::pair<double, const PairCandidate*>> ranked;
+  for (const PairCandidate& c : candidates) {
+    const double mismatch = std::abs(c.ln_ratio - ln_ratio);
+    if (mismatch < 0.15) ranked.push_back({mismatch + c.separation_cost, &c});
+  }
+  std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<unsigned char> used(P.size(), 0);
   Pairing out;
-  for (const Candidate& c : cands) {
-    if (used[c.h] || used[c.v]) continue;
-    used[c.h] = used[c.v] = 1;
+  out.ln_hv_ratio = ln_ratio;
+  for (const auto& [cost, c] : ranked) {
+    if (used[c->h] || used[c->v]) continue;
+    used[c->h] = used[c->v] = 1;
     ChartElement e;
-    e.h = c.h;
-    e.v = c.v;
-    e.period_px = 0.5 * (P[c.h].period_px + P[c.v].period_px);
+    e.h = c->h;
+    e.v = c->v;
+    e.period_px = 0.5 * (P[c->h].period_px + P[c->v].period_px);
     out.elements.push_back(e);
   }
   for (size_t i = 0; i < used.size(); ++i)
     if (!used[i]) ++out.unpaired, out.lone.push_back(static_cast<int>(i));
   return out;
+}
+
+// The median ln(H period / V period) of the elements.
+double median_ln_ratio(const std::vector<BarPattern>& P, const std::vector<ChartElement>& elements) {
+  std::vector<double> r;
+  for (const ChartElement& e : elements) r.push_back(std::log(P[e.h].period_px / P[e.v].period_px));
+  std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+  return r[r.size() / 2];
+}
+
+}  // namespace
+
+// A chart seen obliquely is foreshortened across the tilt's axis: its H
+// and V triplets differ in period by the cosine of the tilt (13 % at 30
+// degrees, 0.14 on the log scale, about a pairing's whole tolerance). The
+// patterns are paired as seen face on, and at H/V ratios up to 1.42 either
+// way (a 45 degree tilt) in steps of a third of the tolerance; a ratio
+// other than 1 is taken only where it pairs more patterns than face on,
+// and at least three (two say little of the whole chart: on dev_12 the
+// field's distortion near the lit disc's rim squeezes one element's H
+// triplet by 15 % against its V triplet, and its neighbour's by 7 %),
+// and then refined to the median of the pairs it made.
+Pairing pair_patterns(const std::vector<BarPattern>& P) {
+  constexpr double kMaxLnRatio = 0.35, kRatioStep = 0.05;
+  constexpr size_t kMinForeshortenedElements = 3;
+  const std::vector<PairCandidate> candidates = pair_candidates(P, kMaxLnRatio + 0.15);
+  Pairing best = pair_at_ratio(P, candidates, 0);
+  bool foreshortened = false;
+  for (double r = -kMaxLnRatio; r <= kMaxLnRatio + 1e-9; r += kRatioStep) {
+    if (std::abs(r) < 1e-9) continue;
+    Pairing p = pair_at_ratio(P, candidates, r);
+    if (p.elements.size() > best.elements.size() && p.elements.size() >= kMinForeshortenedElements)
+      best = std::move(p), foreshortened = true;
+  }
+  if (foreshortened) {
+    Pairing refined = pair_at_ratio(P, candidates, median_ln_ratio(P, best.elements));
+    if (refined.elements.size() >= best.elements.size()) best = std::move(refined);
+  }
+  return best;
 }
 
 // Components by runs (chart_detect_internal.h). A few per cent of the

@@ -101,11 +101,8 @@ double drop_odd_separations(const ChartDetection& D, std::vector<ChartElement>& 
 }
 
 // Relative indices: 6 log2(period ratio) steps from the largest.
-// - Perspective makes the image scale vary over the chart (a 15 degree
-//   tilt of a chart filling the view: +-20 %, more than one step), so the
-//   periods are first divided by a scale field ln s = c1 x + c2 y, fitted
-//   jointly with the indices (a few rounds: indices from the corrected
-//   periods, then the field from the indices).
+// - Perspective makes the image scale vary over the chart, so the periods
+//   are first divided by a scale field ln s = c1 x + c2 y (scale_gradient).
 // - Blur widens the outer bars of a fine pattern in the binarised image
 //   and so overstates its period; the order of the corrected periods
 //   survives, and no (group, element) appears twice on a chart, so the
@@ -113,17 +110,30 @@ double drop_odd_separations(const ChartDetection& D, std::vector<ChartElement>& 
 // - The rounding offset comes from the well-sampled elements (>= 8 px
 //   per period), whose periods the binarisation gets right.
 //
-// Indices into `out` for the field gradient g: strictly rising in the order
-// of the corrected periods, rounded with the offset of the well-sampled
-// ones. Returns the misfit of the well-sampled ones (in steps^2).
-double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& elements,
-                      const ScaleField& field, Vec2 g, std::vector<ChartElement>& out) {
-  // Each element's corrected period as a logarithm, computed once: the
-  // gradient search calls this 900 times, and exp() in the sort's
-  // comparisons was 7 % of detection.
+// What the indexing needs of each element, computed once: the gradient
+// search indexes the elements 2,000 times.
+struct IndexSample {
+  double ln_period = 0;  // ln px
+  Vec2 position;         // ScaleField::position
+  bool well_sampled = false;
+};
+
+std::vector<IndexSample> index_samples(const ChartDetection& D, const std::vector<ChartElement>& elements,
+                                       const ScaleField& field) {
+  std::vector<IndexSample> s;
+  for (const ChartElement& e : elements)
+    s.push_back({std::log(e.period_px), field.position(D, e), e.period_px >= kWellSampledPeriodPx});
+  return s;
+}
+
+// The indices for the field gradient g: `index[i]` for sample i, or -1
+// for one far off the series (dropped); strictly rising in the order of the
+// corrected periods, rounded with the offset of the well-sampled ones.
+// Returns the misfit of the well-sampled ones (in steps^2).
+double series_indices(const std::vector<IndexSample>& samples, Vec2 g, std::vector<int>& index) {
   std::vector<std::pair<double, size_t>> ln_corrected;
-  for (size_t i = 0; i < elements.size(); ++i)
-    ln_corrected.push_back({std::log(elements[i].period_px) - dot(g, field.position(D, elements[i])), i});
+  ln_corrected.reserve(samples.size());
+  for (size_t i = 0; i < samples.size(); ++i) ln_corrected.push_back({samples[i].ln_period - dot(g, samples[i].position), i});
   std::sort(ln_corrected.begin(), ln_corrected.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   // Steps of the series from the largest: 6 log2(p0 / corrected period).
   const double steps_per_ln = 6 / std::log(2.0), ln_p0 = ln_corrected.front().first;
@@ -131,28 +141,45 @@ double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& 
   double offset = 0;
   int n_offset = 0;
   for (const auto& [ln_c, i] : ln_corrected)
-    if (elements[i].period_px >= kWellSampledPeriodPx) {
+    if (samples[i].well_sampled) {
       const double x = steps(ln_c);
       offset += x - std::round(x);
       ++n_offset;
     }
   if (n_offset > 0) offset /= n_offset;
-  out.clear();
+  index.assign(samples.size(), -1);
   double sum = 0, sum2 = 0;
-  int n = 0;
+  int n = 0, last = 0;
+  bool any = false;
   for (const auto& [ln_c, i] : ln_corrected) {
-    ChartElement e = elements[i];
     const double x = steps(ln_c) - offset;
-    e.relative_index = static_cast<int>(std::lround(x));
-    if (!out.empty()) e.relative_index = std::max(e.relative_index, out.back().relative_index + 1);
-    if (e.relative_index - x > 1.6) continue;  // far off the series: not a chart element
-    out.push_back(e);
-    if (e.period_px >= kWellSampledPeriodPx) {  // misfit of the well-sampled ones, in steps
-      const double r = e.relative_index - x;
+    int k = static_cast<int>(std::lround(x));
+    if (any) k = std::max(k, last + 1);
+    if (k - x > 1.6) continue;  // far off the series: not a chart element
+    index[i] = k, last = k, any = true;
+    if (samples[i].well_sampled) {  // misfit of the well-sampled ones, in steps
+      const double r = k - x;
       sum += r, sum2 += r * r, ++n;
     }
   }
   return n > 1 ? sum2 / n - (sum / n) * (sum / n) + 1e-3 * norm(g) : 0.0;
+}
+
+// The elements indexed under the field gradient g, in the order of their
+// corrected periods, into `out`; returns the misfit (series_indices).
+double assign_indices(const ChartDetection& D, const std::vector<ChartElement>& elements, const ScaleField& field,
+                      Vec2 g, std::vector<ChartElement>& out) {
+  const std::vector<IndexSample> samples = index_samples(D, elements, field);
+  std::vector<int> index;
+  const double misfit = series_indices(samples, g, index);
+  out.clear();
+  for (size_t i = 0; i < elements.size(); ++i)
+    if (index[i] >= 0) {
+      out.push_back(elements[i]);
+      out.back().relative_index = index[i];
+    }
+  sort_by_index(out);  // the order of the corrected periods: the indices rise strictly along it
+  return misfit;
 }
 
 // Whether the elements lie along one line (a single column in view): the
@@ -178,20 +205,24 @@ bool along_one_line(const ChartDetection& D, const std::vector<ChartElement>& el
 // The field's gradient: a grid search, then a finer one around the best;
 // +-30 % scale change over half the image covers a 15-20 degree tilt of a
 // chart that fills the view. A search, not a fit, because wrong indices
-// make a fit converge to a wrong but self-consistent field.
+// make a fit converge to a wrong but self-consistent field. (A wide-angle
+// camera 15 mm from a chart tilted by 20 degrees needs +-0.6: searched
+// that far, a face-on view with a column cut by the image's edge found a
+// spurious gradient far out and was indexed wrong; docs/CHART.md.)
 Vec2 scale_gradient(const ChartDetection& D, const std::vector<ChartElement>& elements,
                     const ScaleField& field) {
   Vec2 best_g{0, 0};
   if (along_one_line(D, elements)) return best_g;
-  std::vector<ChartElement> kept;
-  double best_cost = assign_indices(D, elements, field, best_g, kept);
-  for (double step : {0.03, 0.006}) {
+  const std::vector<IndexSample> samples = index_samples(D, elements, field);
+  std::vector<int> index;
+  const double cost0 = series_indices(samples, best_g, index);
+  double best_cost = cost0;
+  for (const double step : {0.03, 0.006}) {
     const Vec2 c = best_g;
     for (int i = -10; i <= 10; ++i)
       for (int j = -10; j <= 10; ++j) {
         const Vec2 g{c.x + i * step, c.y + j * step};
-        std::vector<ChartElement> trial;
-        const double cost = assign_indices(D, elements, field, g, trial);
+        const double cost = series_indices(samples, g, index);
         if (cost < best_cost - 1e-12) best_cost = cost, best_g = g;
       }
   }
@@ -202,8 +233,6 @@ Vec2 scale_gradient(const ChartDetection& D, const std::vector<ChartElement>& el
   // 0.26 -> 0.014); noise and blur-biased periods, by up to 2.7 times
   // (a 4.3 px defocus disc: 0.047 -> 0.0175, with a wrong index). A
   // gradient is kept when it lowers the misfit 4 times or more.
-  std::vector<ChartElement> flat;
-  const double cost0 = assign_indices(D, elements, field, {0, 0}, flat);
   if (!(best_cost < 0.25 * cost0)) best_g = {0, 0};
   return best_g;
 }
@@ -496,6 +525,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   D.patterns = D.light_bars ? found.light : found.dark;
   Pairing& pairing = D.light_bars ? el : ed;
   D.unpaired_patterns = pairing.unpaired;
+  D.hv_period_ratio = std::exp(pairing.ln_hv_ratio);
   std::vector<ChartElement> elements = std::move(pairing.elements);
   D.separation_periods = drop_odd_separations(D, elements);
   if (elements.empty() && single_pattern_element(D, found, options)) return D;

@@ -105,6 +105,7 @@ struct Pairing {
   std::vector<ChartElement> elements;
   int unpaired = 0;
   std::vector<int> lone;  // the unpaired patterns
+  double ln_hv_ratio = 0;  // ln of the H/V period ratio paired at (ChartDetection::hv_period_ratio)
 };
 Pairing pair_patterns(const std::vector<BarPattern>& P);
 

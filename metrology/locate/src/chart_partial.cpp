@@ -38,13 +38,17 @@ Vec2 place_partner(const ChartDetection& D, ChartElement& e, Vec2 h_to_v, int co
 }
 
 // The found pattern of partial element `e` turned a quarter about itself
-// and moved to `center_px`: its partner as the chart draws it, predicted.
+// and moved to `center_px`: its partner as the chart draws it, predicted,
+// its period scaled by the chart's foreshortening (hv_period_ratio).
 BarPattern predicted_partner(const ChartDetection& D, const ChartElement& e, Vec2 center_px) {
   const BarPattern& p = D.patterns[e.h >= 0 ? e.h : e.v];
+  const double scale = e.h >= 0 ? 1 / D.hv_period_ratio : D.hv_period_ratio;
   BarPattern q = p;
   q.center_px = center_px;
   q.bar_dir = perp(p.bar_dir);
-  for (size_t i = 0; i < q.bar_centers_px.size(); ++i) q.bar_centers_px[i] = center_px + perp(p.bar_centers_px[i] - p.center_px);
+  q.period_px = scale * p.period_px;
+  for (size_t i = 0; i < q.bar_centers_px.size(); ++i)
+    q.bar_centers_px[i] = center_px + scale * perp(p.bar_centers_px[i] - p.center_px);
   q.predicted = true;
   q.nested = false;
   return q;
@@ -67,10 +71,6 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
   for (int k : lone) {
     const BarPattern& p = D.patterns[k];
     if (p.period_px < 4) continue;  // a fine pattern's binarised period is not reliable enough to index it
-    const Vec2 pos = field.position(p.center_px);
-    const double x = (field.level0 + dot(field.g, pos) - std::log(p.period_px)) / step;
-    const int index = static_cast<int>(std::lround(x));
-    if (std::abs(x - index) > 0.3 || index < -6 || std::count(taken.begin(), taken.end(), index)) continue;
     const ChartElement* near = nullptr;
     double near_d = 1e300;
     for (const ChartElement& e : D.elements) {
@@ -87,9 +87,19 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
     // the nearest element's axes, distortion included.
     const double along_x = std::min(std::abs(dot(p.bar_dir, ex)), 1.0);
     if (std::min(std::acos(along_x), std::asin(along_x)) > kLoneAxisTolerance) continue;
+    const bool is_h = along_x > std::cos(30 * M_PI / 180);
+    // An element's period is its two patterns' mean: on a foreshortened
+    // chart (pH = r pV) a lone V pattern's is 2 / (1 + r) of it, a lone H
+    // pattern's 2r / (1 + r) (a V triplet alone at H/V 0.84 was indexed one
+    // step too coarse).
+    const double r = D.hv_period_ratio;
+    const double element_period_px = p.period_px * (is_h ? (1 + r) / (2 * r) : (1 + r) / 2);
+    const double x = (field.level0 + dot(field.g, field.position(p.center_px)) - std::log(element_period_px)) / step;
+    const int index = static_cast<int>(std::lround(x));
+    if (std::abs(x - index) > 0.3 || index < -6 || std::count(taken.begin(), taken.end(), index)) continue;
     ChartElement e;
-    (along_x > std::cos(30 * M_PI / 180) ? e.h : e.v) = k;
-    e.period_px = p.period_px;
+    (is_h ? e.h : e.v) = k;
+    e.period_px = element_period_px;
     e.relative_index = index;
     place_partner(D, e, ex, img.cols, img.rows);
     taken.push_back(index);

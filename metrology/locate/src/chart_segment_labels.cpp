@@ -40,8 +40,13 @@ struct ElementFrame {
   Vec2 ex;
   double sign_y = 1;  // -1: mirrored
   double bar_px = 1;
+  // sqrt of the H/V period ratio (ChartDetection::hv_period_ratio): a chart
+  // seen obliquely is narrower in its x than in its y by its square.
+  double root_hv_ratio = 1;
   // Bar widths, relative to the origin -> px.
-  Vec2 to_image(Vec2 c) const { return origin_px + bar_px * (c.x * ex + (sign_y * c.y) * perp(ex)); }
+  Vec2 to_image(Vec2 c) const {
+    return origin_px + bar_px * ((c.x / root_hv_ratio) * ex + (sign_y * c.y * root_hv_ratio) * perp(ex));
+  }
 };
 
 ElementFrame frame_of(const ChartDetection& D, const ChartElement& e, double bar_px, bool mirrored) {
@@ -51,6 +56,7 @@ ElementFrame frame_of(const ChartDetection& D, const ChartElement& e, double bar
   f.ex = (1.0 / std::max(norm(d), 1e-9)) * d;
   f.sign_y = mirrored ? -1 : 1;
   f.bar_px = bar_px;
+  f.root_hv_ratio = std::sqrt(D.hv_period_ratio);
   return f;
 }
 

@@ -184,6 +184,7 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
   j["elements_found"] = d.elements.size() - placed.size();
   j["partners_placed"] = partners;
   j["unpaired_patterns"] = d.unpaired_patterns;
+  j["hv_period_ratio"] = d.hv_period_ratio;  // 1 face on; a chart seen obliquely is foreshortened
   j["single_pattern"] = d.single_pattern;  // one triplet in view, measured in the image's orientation
   j["predicted_elements"] = d.predicted_elements;
   j["placed_elements"] = placed;

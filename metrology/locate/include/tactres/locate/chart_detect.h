@@ -117,6 +117,11 @@ struct ChartDetection {
   int largest_index = 0;            // absolute series index 6 g + e - 1 of relative index 0
   int unpaired_patterns = 0;        // patterns found without a partner (measured only in `partial`)
   double separation_periods = 3.5;  // an element's H-to-V centre distance in its periods (the chart's median)
+  // The H triplets' period over the V triplets' (the ratio the patterns
+  // were paired at): 1 seen face on; a chart seen obliquely is
+  // foreshortened across the tilt's axis (about 1 / cos(tilt) when the axis
+  // is the chart's y).
+  double hv_period_ratio = 1;
   // The row pitch of a coherent fibre bundle's honeycomb over the image,
   // px (0: none). The chart is then found, and its numbers read, on a copy
   // smoothed at the lattice's scale; it is measured on the image itself,
