@@ -442,14 +442,15 @@ double median_ln_ratio(const std::vector<BarPattern>& P, const std::vector<Chart
 // triplet by 15 % against its V triplet, and its neighbour's by 7 %),
 // and then refined to the median of the pairs it made.
 Pairing pair_patterns(const std::vector<BarPattern>& P) {
-  constexpr double kMaxLnRatio = 0.35, kRatioStep = 0.05;
+  constexpr double kRatioStep = 0.05;  // ln: a third of the pairing's tolerance
+  constexpr int kRatioSteps = 7;       // either way: ln 1.42 = 0.35
   constexpr size_t kMinForeshortenedElements = 3;
-  const std::vector<PairCandidate> candidates = pair_candidates(P, kMaxLnRatio + 0.15);
+  const std::vector<PairCandidate> candidates = pair_candidates(P, kRatioSteps * kRatioStep + 0.15);
   Pairing best = pair_at_ratio(P, candidates, 0);
   bool foreshortened = false;
-  for (double r = -kMaxLnRatio; r <= kMaxLnRatio + 1e-9; r += kRatioStep) {
-    if (std::abs(r) < 1e-9) continue;
-    Pairing p = pair_at_ratio(P, candidates, r);
+  for (int k = -kRatioSteps; k <= kRatioSteps; ++k) {
+    if (k == 0) continue;
+    Pairing p = pair_at_ratio(P, candidates, k * kRatioStep);
     if (p.elements.size() > best.elements.size() && p.elements.size() >= kMinForeshortenedElements)
       best = std::move(p), foreshortened = true;
   }

@@ -111,7 +111,7 @@ double drop_odd_separations(const ChartDetection& D, std::vector<ChartElement>& 
 //   per period), whose periods the binarisation gets right.
 //
 // What the indexing needs of each element, computed once: the gradient
-// search indexes the elements 2,000 times.
+// search indexes the elements about 900 times.
 struct IndexSample {
   double ln_period = 0;  // ln px
   Vec2 position;         // ScaleField::position
