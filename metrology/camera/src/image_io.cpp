@@ -101,6 +101,8 @@ void fill_luminance(const float* pixels, bool bgr, const LoadOptions& options, c
   const int nc = out.channels;
   const bool colour = options.channel < 0 && nc >= 3;
   const int r = bgr ? 2 : 0, b = bgr ? 0 : 2;
+  out.rounding.curve = curve;
+  out.rounding.weight_sq = colour ? 0.2126 * 0.2126 + 0.7152 * 0.7152 + 0.0722 * 0.0722 : 1.0;
   for (int y = 0; y < out.height; ++y) {
     float* row = out.luminance.ptr<float>(y);
     const float* src = pixels + static_cast<size_t>(y) * out.width * nc;
@@ -234,6 +236,11 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
   out.pixel_format = format_name(spec.format);
   out.bits_per_sample = spec.get_int_attribute("oiio:BitsPerSample", static_cast<int>(spec.format.size() * 8));
   out.integer_format = !spec.format.is_floating_point();
+  // OpenImageIO reads integers over their container's full range (signed
+  // ones to [-1, 1], offset to [0, 1] below: half a step of [-1, 1]).
+  if (out.integer_format)
+    out.rounding.code_step = (spec.format.is_signed() ? 0.5 : 1.0) /
+                             (std::exp2(static_cast<double>(spec.format.size() * 8 - spec.format.is_signed())) - 1);
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
     throw UnusableInput(fmt::format("image {} has no pixels", path.string()));
   if (options.channel >= spec.nchannels)
@@ -290,6 +297,7 @@ LoadedImage image_from_frame(const cv::Mat& frame, const LoadOptions& options, c
   out.pixel_format = depth == CV_8U ? "uint8" : "uint16";
   out.bits_per_sample = depth == CV_8U ? 8 : 16;
   out.integer_format = true;
+  out.rounding.code_step = depth == CV_8U ? 1.0 / 255 : 1.0 / 65535;
   if (options.channel >= out.channels)
     throw std::invalid_argument(fmt::format("--channel {} does not exist: {} has {} channel(s)", options.channel,
                                             what, out.channels));
@@ -301,6 +309,15 @@ LoadedImage image_from_frame(const cv::Mat& frame, const LoadOptions& options, c
   if (!scaled.isContinuous()) scaled = scaled.clone();
   fill_luminance(scaled.ptr<float>(), out.channels >= 3, options, what, out);
   return out;
+}
+
+double CodeRounding::sd_at(double linear_level) const {
+  if (!(code_step > 0) || !std::isfinite(linear_level)) return 0.0;
+  // The light one code step spans about the level's code.
+  const double code = curve.to_code(static_cast<float>(std::max(0.0, linear_level)));
+  const double lo = std::clamp(code - 0.5 * code_step, 0.0, 1.0 - code_step);
+  const double step_light = curve.to_linear(static_cast<float>(lo + code_step)) - curve.to_linear(static_cast<float>(lo));
+  return std::abs(step_light) * std::sqrt(weight_sq / 12.0);
 }
 
 void write_image(const std::filesystem::path& path, const cv::Mat& image, int bits) {

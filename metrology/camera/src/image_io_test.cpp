@@ -157,6 +157,34 @@ TEST_CASE("load_image: untagged files follow the bit depth, tagged files follow 
   }
 }
 
+TEST_CASE("load_image: an integer file's code rounding is its noise floor, in linear light at each level") {
+  TempFolder dir;
+  const double sqrt12 = std::sqrt(12.0);
+  // 16-bit linear: one step of 1/65535 everywhere.
+  const LoadedImage lin16 = load_image(write_grey(dir.path / "lin16.png", OIIO::TypeDesc::UINT16, 0.5f));
+  CHECK(lin16.rounding.sd_at(0.01) == doctest::Approx(1.0 / 65535 / sqrt12).epsilon(0.01));
+  CHECK(lin16.rounding.sd_at(0.9) == doctest::Approx(1.0 / 65535 / sqrt12).epsilon(0.01));
+  // 8-bit sRGB: the step in light grows with the level (the curve's slope):
+  // 1/255/12.92 on the linear toe, the curve's slope at mid grey.
+  const LoadedImage srgb8 = load_image(write_grey(dir.path / "srgb8.png", OIIO::TypeDesc::UINT8, 0.5f));
+  CHECK(srgb8.rounding.sd_at(0.001) == doctest::Approx(1.0 / 255 / 12.92 / sqrt12).epsilon(0.02));
+  const double mid = srgb_decoded(128 / 255.0f), step_mid = srgb_decoded(128.5f / 255) - srgb_decoded(127.5f / 255);
+  CHECK(srgb8.rounding.sd_at(mid) == doctest::Approx(step_mid / sqrt12).epsilon(0.02));
+  CHECK(srgb8.rounding.sd_at(0.9) > 5 * srgb8.rounding.sd_at(0.001));
+  // Signed 16-bit: half a step of [-1, 1], offset to [0, 1].
+  const LoadedImage signed16 = load_image(write_grey(dir.path / "s16.tif", OIIO::TypeDesc::INT16, 0.0f));
+  CHECK(signed16.rounding.sd_at(0.5) == doctest::Approx(0.5 / 32767 / sqrt12).epsilon(0.01));
+  // Float data are not rounded to codes.
+  const LoadedImage f = load_image(write_grey(dir.path / "f.tif", OIIO::TypeDesc::FLOAT, 0.5f));
+  CHECK(f.rounding.sd_at(0.5) == 0.0);
+  // A frame in memory: its depth, grey or colour (Rec. 709 weights, each
+  // channel rounded on its own).
+  const LoadedImage grey = image_from_frame(cv::Mat(4, 4, CV_8UC1, cv::Scalar(100)), {}, "grey frame");
+  const LoadedImage colour = image_from_frame(cv::Mat(4, 4, CV_8UC3, cv::Scalar(100, 100, 100)), {}, "colour frame");
+  const double weights_sq = 0.2126 * 0.2126 + 0.7152 * 0.7152 + 0.0722 * 0.0722;
+  CHECK(colour.rounding.sd_at(0.2) == doctest::Approx(grey.rounding.sd_at(0.2) * std::sqrt(weights_sq)).epsilon(1e-6));
+}
+
 TEST_CASE("load_image: signed integers are offset so that the format's minimum is black") {
   TempFolder dir;
   // OpenImageIO hands int16 over as [-1, 1]: -0.5 (-16384) is a quarter of

@@ -360,7 +360,7 @@ ChartFrameResult measure_tracked(const LoadedImage& image, const ChartMeasureOpt
   for (const SampledProfile& sp : anchor_profiles) pool.push_back(&sp);
   // Fitting every element pools the coarse ones' noise as a refit does;
   // fitting a few near the limit takes the anchors' coarse strips instead.
-  const GradingContext context{M.reference, mo, false, true, plan.fit_element ? &pool : nullptr};
+  const GradingContext context{M.reference, mo, false, true, plan.fit_element ? &pool : nullptr, image.rounding};
   std::vector<ElementResult> fitted;
   M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, context, fitted)});
   M.elements = T.elements;
@@ -433,7 +433,7 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   if (!step_note.empty()) M.warnings.push_back(step_note);
 
   std::vector<size_t> graded;
-  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false, true}, M.elements, &graded)});
+  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false, true, nullptr, image.rounding}, M.elements, &graded)});
   if (track) *track = make_track(image, D, refs, jobs, profiles, graded, shifts, store, M);
   decide_chart(D, mo, M);
   if (track && M.usable) {

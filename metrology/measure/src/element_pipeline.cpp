@@ -37,7 +37,7 @@ constexpr double kNoisePoolPxPerBar = 4.0;
 // Then its CNR (profiles/detectability.h). `given_pool`, when not empty,
 // replaces the coarse strips (GradingContext::noise_pool).
 void pool_noise(std::vector<ElementResult>& elements, size_t first, const std::vector<const SampledProfile*>& strips,
-                const std::vector<const SampledProfile*>* given_pool) {
+                const std::vector<const SampledProfile*>* given_pool, const CodeRounding& rounding) {
   std::vector<const SampledProfile*> pool;
   if (given_pool) pool = *given_pool;
   if (pool.empty())
@@ -55,9 +55,13 @@ void pool_noise(std::vector<ElementResult>& elements, size_t first, const std::v
     for (size_t k = 0; k < pool.size(); ++k) sd[k] = {pool[k]->noise_sd_at(r.mean_level), pool[k]};
     std::nth_element(sd.begin(), sd.begin() + sd.size() / 2, sd.end());
     const auto [noise_sd, median] = sd[sd.size() / 2];
-    // A noise-free render has ~no scatter: the floor (a 16-bit code step)
-    // keeps the CNR finite without ever making it limit.
-    r.noise_sd = std::max(noise_sd, 1.5e-5 * std::abs(r.mean_level));
+    // A noise-free render has ~no scatter: the floors keep the CNR finite
+    // and meaningful. The file's code rounding is noise it cannot be
+    // without (noise-free 8-bit charts read noise_sd 7.5e-6, a seventh of
+    // a percent of their rounding's, and CNRs of 1e5 and more that only the
+    // rounding's luck decided); the relative floor (a 16-bit code step)
+    // covers float data, never limiting.
+    r.noise_sd = std::max({noise_sd, 1.5e-5 * std::abs(r.mean_level), rounding.sd_at(r.mean_level)});
     r.noise_shot_fraction =
         std::clamp(median->noise_var_per_level * std::max(r.mean_level, 0.0) / (r.noise_sd * r.noise_sd), 0.0, 1.0);
     r.cnr = rose_cnr(r.signal, r.bar_pixels, r.noise_sd);
@@ -153,7 +157,7 @@ double grade_jobs(const std::vector<ElementJob>& jobs, const std::vector<std::ve
     elements.push_back(r);
     strips.push_back(graded_on);
   }
-  pool_noise(elements, first, strips, context.noise_pool);
+  pool_noise(elements, first, strips, context.noise_pool, context.rounding);
   return fit_seconds;
 }
 

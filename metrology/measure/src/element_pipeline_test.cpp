@@ -9,11 +9,13 @@
 
 using namespace tactres;
 
-TEST_CASE("grade_jobs: each placement is graded from scratch, and the better fit wins") {
-  // A vertical-bar triplet, bar width 0.1 mm at 40 px/mm (4 px per bar),
-  // ground 0.9 x (1 - 0.8 S), lightly blurred, with noise of 0.01,
-  // centred at (100, 100).
-  constexpr double w_mm = 0.1, px_per_mm = 40;
+namespace {
+
+// A vertical-bar triplet, bar width 0.1 mm at 40 px/mm (4 px per bar),
+// ground 0.9 x (1 - 0.8 S), lightly blurred, with Gaussian noise of
+// noise_sd, centred at (100, 100).
+constexpr double w_mm = 0.1, px_per_mm = 40;
+cv::Mat triplet_capture(double noise_sd) {
   constexpr int sub = 8;  // drawn at 8 x 8 samples a pixel, then averaged: area coverage
   cv::Mat fine(200 * sub, 200 * sub, CV_32F, cv::Scalar(0)), ink;
   for (int y = 0; y < fine.rows; ++y)
@@ -26,8 +28,21 @@ TEST_CASE("grade_jobs: each placement is graded from scratch, and the better fit
   cv::GaussianBlur(ink, ink, {0, 0}, 1.0);
   cv::Mat lum = 0.9 * (1 - 0.8 * ink), noise(lum.size(), CV_32F);
   cv::RNG rng(7);
-  rng.fill(noise, cv::RNG::NORMAL, 0.0, 0.01);
-  lum += noise;
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, noise_sd);
+  return lum + noise;
+}
+
+ReferenceResult triplet_reference() {
+  ReferenceResult ref;
+  ref.usable = true;
+  ref.horizontal_bars = ref.vertical_bars = {-0.8, 0.005, 1.0};  // relative to the ground
+  return ref;
+}
+
+}  // namespace
+
+TEST_CASE("grade_jobs: each placement is graded from scratch, and the better fit wins") {
+  const cv::Mat lum = triplet_capture(0.01);
 
   const test::TripletLayout triplet = test::vertical_triplet(w_mm);
   const ElementLayout& e = triplet.element;
@@ -42,9 +57,7 @@ TEST_CASE("grade_jobs: each placement is graded from scratch, and the better fit
   const std::vector<ElementJob> jobs{job};
   const auto profiles = sample_jobs(lum, jobs, 1.0);
 
-  ReferenceResult ref;
-  ref.usable = true;
-  ref.horizontal_bars = ref.vertical_bars = {-0.8, 0.005, 1.0};  // relative to the ground
+  const ReferenceResult ref = triplet_reference();
   const MeasureOptions mo;
   std::vector<ElementResult> alone, both;
   std::vector<size_t> placement;
@@ -62,6 +75,45 @@ TEST_CASE("grade_jobs: each placement is graded from scratch, and the better fit
   // Nothing of the first placement's grading is left on the winner.
   CHECK(both[0].note.empty());
   CHECK_FALSE(both[0].m_undetermined);
+}
+
+TEST_CASE("grade_jobs: no element's noise is taken below the capture's code rounding") {
+  // Noise-free, rounded to 8-bit sRGB codes and decoded back, as an
+  // untagged 8-bit file would be.
+  cv::Mat lum = triplet_capture(0.0);
+  const TransferCurve srgb = TransferCurve::srgb();
+  for (int y = 0; y < lum.rows; ++y)
+    for (int x = 0; x < lum.cols; ++x) {
+      float& v = lum.at<float>(y, x);
+      v = srgb.to_linear(std::round(srgb.to_code(v) * 255.0f) / 255.0f);
+    }
+  const test::TripletLayout triplet = test::vertical_triplet(w_mm);
+  const IndexedArtwork artwork(triplet.shapes);
+  const PatternFrame frame({99.5, 99.5}, {1, 0}, px_per_mm);
+  ElementJob job;
+  job.element = ElementResult::of(2, 1, BarOrientation::vertical_bars, triplet.element.lp_per_mm, w_mm * px_per_mm);
+  job.placements = {{&frame, &artwork, element_strip(triplet.element, job.sampling)}};
+  const std::vector<ElementJob> jobs{job};
+  const auto profiles = sample_jobs(lum, jobs, 1.0);
+  const ReferenceResult ref = triplet_reference();
+  const MeasureOptions mo;
+  CodeRounding rounding;
+  rounding.code_step = 1.0 / 255;
+  rounding.curve = srgb;
+  std::vector<ElementResult> unfloored, floored;
+  grade_jobs(jobs, profiles, {ref, mo}, unfloored);
+  grade_jobs(jobs, profiles, {ref, mo, false, false, nullptr, rounding}, floored);
+  REQUIRE(unfloored.size() == 1);
+  REQUIRE(floored.size() == 1);
+  REQUIRE(floored[0].status == ElementStatus::ok);
+  const double rounding_sd = rounding.sd_at(floored[0].mean_level);
+  // The flat bins of a noise-free frame scatter far less than the rounding
+  // (the floor matters), and the floor is what the noise then reads.
+  CHECK(unfloored[0].noise_sd < 0.5 * rounding_sd);
+  CHECK(floored[0].noise_sd == doctest::Approx(rounding_sd));
+  CHECK(floored[0].cnr < unfloored[0].cnr);
+  // The fit itself is the same.
+  CHECK(floored[0].m == unfloored[0].m);
 }
 
 TEST_CASE("placement_replaces: the better fit, and a fit's own m over a model-free one") {

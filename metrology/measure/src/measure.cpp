@@ -414,7 +414,12 @@ FrameResult measure_frame(const LoadedImage& image, const TargetLayout& layout, 
   }
   if (ref.signature == Signature::shading) note_gain_fields(M);
   std::vector<ElementResult> fitted;
-  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {ref, options, encoding_mismatch}, fitted)});
+  // The code rounding under the curve the pixels were measured in (a
+  // switched curve re-decoded them).
+  CodeRounding rounding = image.rounding;
+  rounding.curve = M.transfer.curve;
+  const GradingContext context{ref, options, encoding_mismatch, false, nullptr, rounding};
+  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, context, fitted)});
   M.elements = merge_carried(fitted, index, plan, layout.elements.size());
 
   // Decide.

@@ -43,6 +43,21 @@ struct LoadOptions {
 
 NonFinitePolicy non_finite_policy_from_string(const std::string& s);  // reject | mask
 
+// The rounding of an integer file's code values, as noise in linear light
+// (the classical quantisation model: each value is off by up to half a
+// code step, uniformly, so its sd is step / sqrt(12) on the code scale,
+// times the curve's slope at that level). A luminance mixed from colour
+// channels, each rounded on its own, carries the sum of the squared
+// weights of that variance. It is the least noise such a file can hold:
+// a render with no noise of its own still has it wherever the light
+// varies, and a noise estimate below it reads rounding luck.
+struct CodeRounding {
+  double code_step = 0;  // one code value on the [0, 1] scale the pixels were read on; 0: float data, none
+  TransferCurve curve;   // the curve that maps codes to light
+  double weight_sq = 1;  // sum of the squared weights of the channels in the luminance (1: one channel)
+  double sd_at(double linear_level) const;  // the rounding's sd in linear light at that level (0 for float data)
+};
+
 struct LoadedImage {
   cv::Mat luminance;          // CV_32F, linear; NaN where masked
   int width = 0, height = 0, channels = 0;
@@ -50,6 +65,7 @@ struct LoadedImage {
   int bits_per_sample = 0;
   bool integer_format = false;
   TransferDecision transfer;  // the curve applied, and why
+  CodeRounding rounding;      // the code values' rounding, in linear light (noise floor)
   long long non_finite_pixels = 0;
   double saturation_level = 0;  // value at which integer pixels clip (1.0); 0 for float
   bool more_frames = false;     // the file holds more images of this size (a stack); only the first is read

@@ -24,6 +24,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "tactres/camera/image_io.h"
 #include "tactres/camera/plane_map.h"
 #include "tactres/measure/element_grading.h"
 #include "tactres/measure/measurement.h"
@@ -67,6 +68,9 @@ struct GradingContext {
   // frame that fits only the elements near the limit passes coarse strips
   // it sampled anyway, since its jobs may hold none.
   const std::vector<const SampledProfile*>* noise_pool = nullptr;
+  // The capture's code rounding (camera/image_io.h): no element's noise is
+  // taken below it.
+  CodeRounding rounding{};
 };
 
 // Whether a job's placement graded `alt` replaces the one graded `r`: the
