@@ -318,5 +318,20 @@ TEST_CASE("real photographs without a chart: no chart found, exit 2") {
     CHECK((*r.j)["problem"].get<std::string>().find("no USAF-1951 chart found") != std::string::npos);
   }
   if (tried == 0) MESSAGE("skipped: " << docs.string() << " holds none of the sample photographs");
+  // A plot (Debian's nodejs docs, a ggplot figure): three of its strokes
+  // pass for a single pattern filling the frame. Refused, and the message
+  // says what was found, not only that it is clipped.
+  const fs::path plot = "/usr/share/doc/nodejs/contributing/doc_img/scatter-plot.png";
+  if (!fs::exists(plot)) {
+    MESSAGE("skipped: " << plot.string() << " is absent");
+    return;
+  }
+  const Run& r = measure_image(plot);
+  CHECK(r.exit_code == 2);
+  REQUIRE(r.j);
+  CHECK_FALSE((*r.j)["usable"].get<bool>());
+  const std::string problem = (*r.j)["problem"].get<std::string>();
+  CHECK((problem.find("no USAF-1951 chart found") != std::string::npos ||
+         problem.find("if the image shows no chart, it is not one") != std::string::npos));
 }
 

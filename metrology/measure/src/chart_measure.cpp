@@ -427,7 +427,13 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   set_nyquist(frames, D, M);
   if (!D.anchor_conflict.empty()) M.warnings.push_back(D.anchor_conflict);
   if (!scaled) {
-    M.problem = step_note;
+    // One pattern and nothing else of a chart is what a single element
+    // filling a microscope frame looks like, and what three strokes of a
+    // graphic can look like (a plot, drawn in clipped black): the message
+    // must not only speak of exposure there.
+    M.problem = D.single_pattern ? step_note + "; this was the only three-bar pattern found, and nothing else of a "
+                                               "chart: if the image shows no chart, it is not one"
+                                 : step_note;
     return out;
   }
   if (!step_note.empty()) M.warnings.push_back(step_note);
