@@ -294,6 +294,7 @@ void measure_raw(const std::uint8_t* data, std::size_t size) {
   img.bits_per_sample = 8;
   img.integer_format = true;
   img.transfer = {TransferCurve::linear(), "test", false};
+  img.rounding.code_step = 1.0 / 255;
   img.saturation_level = 1.0;
   img.luminance.create(h, w, CV_32F);
   const std::uint8_t* px = data + 9;

@@ -200,6 +200,7 @@ inline LoadedImage integer_image(const cv::Mat& dn, int bits) {
   img.bits_per_sample = bits > 8 ? 16 : 8;
   img.integer_format = true;
   img.transfer = {TransferCurve::linear(), "test", false};
+  img.rounding.code_step = 1.0 / ((1 << bits) - 1);
   img.saturation_level = 1.0;
   return img;
 }

@@ -237,10 +237,16 @@ LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& opt
   out.bits_per_sample = spec.get_int_attribute("oiio:BitsPerSample", static_cast<int>(spec.format.size() * 8));
   out.integer_format = !spec.format.is_floating_point();
   // OpenImageIO reads integers over their container's full range (signed
-  // ones to [-1, 1], offset to [0, 1] below: half a step of [-1, 1]).
-  if (out.integer_format)
-    out.rounding.code_step = (spec.format.is_signed() ? 0.5 : 1.0) /
-                             (std::exp2(static_cast<double>(spec.format.size() * 8 - spec.format.is_signed())) - 1);
+  // ones to [-1, 1], offset to [0, 1] below: half a step of [-1, 1]), and
+  // stretches a smaller bit depth that the file states to it (a 12-bit
+  // TIFF's step is 1/4095 of the range, not 1/65535).
+  if (out.integer_format) {
+    const int container_bits = static_cast<int>(spec.format.size() * 8);
+    const bool fewer = !spec.format.is_signed() && out.bits_per_sample > 0 && out.bits_per_sample < container_bits;
+    out.rounding.code_step =
+        spec.format.is_signed() ? 0.5 / (std::exp2(container_bits - 1) - 1)
+                                : 1.0 / (std::exp2(fewer ? out.bits_per_sample : container_bits) - 1);
+  }
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
     throw UnusableInput(fmt::format("image {} has no pixels", path.string()));
   if (options.channel >= spec.nchannels)
@@ -313,11 +319,16 @@ LoadedImage image_from_frame(const cv::Mat& frame, const LoadOptions& options, c
 
 double CodeRounding::sd_at(double linear_level) const {
   if (!(code_step > 0) || !std::isfinite(linear_level)) return 0.0;
-  // The light one code step spans about the level's code.
+  // The light one code step spans about the level's code: the curve's
+  // secant over the step, or over 2e-4 of the code range where the step is
+  // finer (the curve is evaluated in float, which cannot resolve a 32-bit
+  // step).
+  const double span = std::max(code_step, 2e-4);
   const double code = curve.to_code(static_cast<float>(std::max(0.0, linear_level)));
-  const double lo = std::clamp(code - 0.5 * code_step, 0.0, 1.0 - code_step);
-  const double step_light = curve.to_linear(static_cast<float>(lo + code_step)) - curve.to_linear(static_cast<float>(lo));
-  return std::abs(step_light) * std::sqrt(weight_sq / 12.0);
+  const double lo = std::clamp(code - 0.5 * span, 0.0, 1.0 - span);
+  const double slope =
+      (double(curve.to_linear(static_cast<float>(lo + span))) - curve.to_linear(static_cast<float>(lo))) / span;
+  return std::abs(slope) * code_step * std::sqrt(weight_sq / 12.0);
 }
 
 void write_image(const std::filesystem::path& path, const cv::Mat& image, int bits) {

@@ -174,12 +174,34 @@ TEST_CASE("load_image: an integer file's code rounding is its noise floor, in li
   // Signed 16-bit: half a step of [-1, 1], offset to [0, 1].
   const LoadedImage signed16 = load_image(write_grey(dir.path / "s16.tif", OIIO::TypeDesc::INT16, 0.0f));
   CHECK(signed16.rounding.sd_at(0.5) == doctest::Approx(0.5 / 32767 / sqrt12).epsilon(0.01));
+  // A 12-bit TIFF (in a 16-bit container, stretched to its range when
+  // read): its own step, 1/4095.
+  {
+    const fs::path file = dir.path / "twelve.tif";
+    auto out = OIIO::ImageOutput::create(file.string());
+    REQUIRE(out);
+    OIIO::ImageSpec spec(4, 4, 1, OIIO::TypeDesc::UINT16);
+    spec.attribute("oiio:BitsPerSample", 12);
+    REQUIRE(out->open(file.string(), spec));
+    const std::vector<float> pixels(16, 0.5f);
+    REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()));
+    REQUIRE(out->close());
+    const LoadedImage twelve = load_image(file);
+    REQUIRE(twelve.bits_per_sample == 12);
+    CHECK(twelve.rounding.sd_at(0.5) == doctest::Approx(1.0 / 4095 / sqrt12).epsilon(0.01));
+  }
+  // 32-bit integers: a step below float's resolution still reads its size.
+  const LoadedImage u32 = load_image(write_grey(dir.path / "u32.tif", OIIO::TypeDesc::UINT32, 0.5f));
+  CHECK(u32.rounding.sd_at(0.5) == doctest::Approx(1.0 / 4294967295.0 / sqrt12).epsilon(0.01));
   // Float data are not rounded to codes.
   const LoadedImage f = load_image(write_grey(dir.path / "f.tif", OIIO::TypeDesc::FLOAT, 0.5f));
   CHECK(f.rounding.sd_at(0.5) == 0.0);
   // A frame in memory: its depth, grey or colour (Rec. 709 weights, each
   // channel rounded on its own).
   const LoadedImage grey = image_from_frame(cv::Mat(4, 4, CV_8UC1, cv::Scalar(100)), {}, "grey frame");
+  CHECK(grey.rounding.sd_at(0.2) == doctest::Approx(srgb8.rounding.sd_at(0.2)).epsilon(1e-6));
+  const LoadedImage deep = image_from_frame(cv::Mat(4, 4, CV_16UC1, cv::Scalar(100)), {}, "16-bit frame");
+  CHECK(deep.rounding.sd_at(0.2) == doctest::Approx(1.0 / 65535 / sqrt12).epsilon(0.01));
   const LoadedImage colour = image_from_frame(cv::Mat(4, 4, CV_8UC3, cv::Scalar(100, 100, 100)), {}, "colour frame");
   const double weights_sq = 0.2126 * 0.2126 + 0.7152 * 0.7152 + 0.0722 * 0.0722;
   CHECK(colour.rounding.sd_at(0.2) == doctest::Approx(grey.rounding.sd_at(0.2) * std::sqrt(weights_sq)).epsilon(1e-6));

@@ -57,10 +57,10 @@ void pool_noise(std::vector<ElementResult>& elements, size_t first, const std::v
     const auto [noise_sd, median] = sd[sd.size() / 2];
     // A noise-free render has ~no scatter: the floors keep the CNR finite
     // and meaningful. The file's code rounding is noise it cannot be
-    // without (noise-free 8-bit charts read noise_sd 7.5e-6, a seventh of
-    // a percent of their rounding's, and CNRs of 1e5 and more that only the
-    // rounding's luck decided); the relative floor (a 16-bit code step)
-    // covers float data, never limiting.
+    // without (noise-free 8-bit charts read noise_sd 7.5e-6, under 1 % of
+    // their rounding's, and CNRs of 1e5 and more that only the rounding's
+    // luck decided); the relative floor, a 16-bit code step of the level,
+    // holds for float data and is the larger one for most 16-bit levels.
     r.noise_sd = std::max({noise_sd, 1.5e-5 * std::abs(r.mean_level), rounding.sd_at(r.mean_level)});
     r.noise_shot_fraction =
         std::clamp(median->noise_var_per_level * std::max(r.mean_level, 0.0) / (r.noise_sd * r.noise_sd), 0.0, 1.0);

@@ -47,12 +47,15 @@ NonFinitePolicy non_finite_policy_from_string(const std::string& s);  // reject 
 // (the classical quantisation model: each value is off by up to half a
 // code step, uniformly, so its sd is step / sqrt(12) on the code scale,
 // times the curve's slope at that level). A luminance mixed from colour
-// channels, each rounded on its own, carries the sum of the squared
-// weights of that variance. It is the least noise such a file can hold:
-// a render with no noise of its own still has it wherever the light
-// varies, and a noise estimate below it reads rounding luck.
+// channels carries the sum of the squared weights of that variance when
+// each channel rounds on its own (0.56 for Rec. 709), all of it when they
+// round alike (grey stored as RGB): the smaller is taken, so that this
+// stays the least noise such a file can hold. A render with no noise of
+// its own still has it wherever the light varies, and a noise estimate
+// below it reads rounding luck.
 struct CodeRounding {
-  double code_step = 0;  // one code value on the [0, 1] scale the pixels were read on; 0: float data, none
+  double code_step = 0;  // one code value on the [0, 1] scale the pixels were read on (the file's stated
+                         // bit depth); 0: float data, none
   TransferCurve curve;   // the curve that maps codes to light
   double weight_sq = 1;  // sum of the squared weights of the channels in the luminance (1: one channel)
   double sd_at(double linear_level) const;  // the rounding's sd in linear light at that level (0 for float data)
