@@ -101,8 +101,10 @@ void fill_luminance(const float* pixels, bool bgr, const LoadOptions& options, c
   const int nc = out.channels;
   const bool colour = options.channel < 0 && nc >= 3;
   const int r = bgr ? 2 : 0, b = bgr ? 0 : 2;
+  // Rec. 709 luminance weights of linear R, G, B.
+  constexpr float kR = 0.2126f, kG = 0.7152f, kB = 0.0722f;
   out.rounding.curve = curve;
-  out.rounding.weight_sq = colour ? 0.2126 * 0.2126 + 0.7152 * 0.7152 + 0.0722 * 0.0722 : 1.0;
+  out.rounding.weight_sq = colour ? double(kR) * kR + double(kG) * kG + double(kB) * kB : 1.0;
   for (int y = 0; y < out.height; ++y) {
     float* row = out.luminance.ptr<float>(y);
     const float* src = pixels + static_cast<size_t>(y) * out.width * nc;
@@ -110,7 +112,7 @@ void fill_luminance(const float* pixels, bool bgr, const LoadOptions& options, c
       const float* p = src + static_cast<size_t>(x) * nc;
       auto lin = [&](float v) { return curve.to_linear(v); };
       float v;
-      if (colour) v = 0.2126f * lin(p[r]) + 0.7152f * lin(p[1]) + 0.0722f * lin(p[b]);
+      if (colour) v = kR * lin(p[r]) + kG * lin(p[1]) + kB * lin(p[b]);
       else v = lin(p[options.channel < 0 ? 0 : options.channel]);
       if (!std::isfinite(v)) {
         ++out.non_finite_pixels;

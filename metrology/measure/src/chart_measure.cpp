@@ -439,7 +439,8 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   if (!step_note.empty()) M.warnings.push_back(step_note);
 
   std::vector<size_t> graded;
-  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, {M.reference, mo, false, true, nullptr, image.rounding}, M.elements, &graded)});
+  const GradingContext context{M.reference, mo, false, true, nullptr, image.rounding};
+  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, context, M.elements, &graded)});
   if (track) *track = make_track(image, D, refs, jobs, profiles, graded, shifts, store, M);
   decide_chart(D, mo, M);
   if (track && M.usable) {
