@@ -1,5 +1,7 @@
 #include "tactres/reports/comparison.h"
 
+#include "tactres/util/order_stats.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -119,19 +121,6 @@ double common_detectability_k(const std::vector<const MeasurementRecord*>& all) 
           first->path.string(), first->detectability_k, r->path.string(), r->detectability_k));
   }
   return first ? first->detectability_k : 0.0;
-}
-
-double mean(const std::vector<double>& v) {
-  double s = 0;
-  for (double x : v) s += x;
-  return s / double(v.size());
-}
-
-double sample_sd(const std::vector<double>& v) {
-  const double m = mean(v);
-  double s = 0;
-  for (double x : v) s += (x - m) * (x - m);
-  return std::sqrt(s / double(v.size() - 1));
 }
 
 OrientationSummary summarise(const std::vector<const LimitRecord*>& limits) {

@@ -2,6 +2,8 @@
 
 #include "chart_level_step.h"
 
+#include "tactres/util/order_stats.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -111,6 +113,14 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
     ProfileFitOptions fo;
     fo.fit_contrast = true;
     fo.fit_shape = mo.fit_psf_shape;  // a fixed Gaussian would put a heavy-tailed PSF's low-frequency loss into the level step
+    // The bars free to move within a quarter of a bar, as the element's own
+    // grading fit has them (refine_shift_by_fit): the correlation centring
+    // leaves them a tenth of a bar or so off, and with the shape free that
+    // misplacement reads as heavier tails and a deeper step (the generated
+    // chart's G0E1: beta 1.2-1.7 for its Gaussian, |c| 1-6 % deep, every m
+    // 2-5 % low).
+    fo.fit_shift = true;
+    fo.max_shift_mm = 0.25 * refs[i].bar_width_mm();
     const ProfileFit fit = fit_profile(p.data, fo);
     if (fitted_step_usable(fit) && !at_bound(fit)) {
       s.push_back(step_of(fit));
@@ -130,7 +140,15 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
     std::vector<LevelStep>& s = steps[vertical];
     if (s.empty()) continue;
     std::sort(s.begin(), s.end(), [](const LevelStep& a, const LevelStep& b) { return a.contrast < b.contrast; });
-    ref.step(vertical ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars) = s[s.size() / 2];
+    LevelStep median = s[s.size() / 2];
+    // The coarse elements measure one step: where they disagree by more
+    // than their own fits allow (a profile the model misses by a little,
+    // at a signal-to-noise where that is many sigma), their scatter is the
+    // step's uncertainty.
+    std::vector<double> contrasts;
+    for (const LevelStep& step : s) contrasts.push_back(step.contrast);
+    median.contrast_sigma = std::max(median.contrast_sigma, sample_sd(contrasts));
+    ref.step(vertical ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars) = median;
   }
   const bool have_h = !steps[0].empty(), have_v = !steps[1].empty();
   if (!have_h && !have_v) {

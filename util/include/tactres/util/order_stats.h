@@ -1,7 +1,9 @@
 #pragma once
-// Order statistics of timing samples, for the bench and the benchmarks.
+// Order statistics and moments of samples (timings for the bench and the
+// benchmarks; repeated estimates of one quantity).
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace tactres {
@@ -20,6 +22,15 @@ inline double mean(const std::vector<double>& v) {
   double sum = 0;
   for (double x : v) sum += x;
   return v.empty() ? 0.0 : sum / double(v.size());
+}
+// The sample standard deviation (n - 1 in the denominator); 0 for fewer
+// than two values.
+inline double sample_sd(const std::vector<double>& v) {
+  if (v.size() < 2) return 0.0;
+  const double m = mean(v);
+  double ss = 0;
+  for (double x : v) ss += (x - m) * (x - m);
+  return std::sqrt(ss / double(v.size() - 1));
 }
 
 }  // namespace tactres
