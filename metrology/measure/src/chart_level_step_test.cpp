@@ -35,6 +35,34 @@ ProfileData three_bars(double c, double w, double blur_mm, double noise, unsigne
   return d;
 }
 
+// n coarse found patterns of group `group` element 1 at `lp_per_mm`,
+// alternately H and V, pattern k sampled as profile(k): what
+// chart_level_steps takes.
+struct CoarsePatterns {
+  ChartDetection D;
+  std::vector<chart::PatternRef> refs;
+  std::vector<ElementJob> jobs;
+  std::vector<std::vector<SampledProfile>> profiles;
+};
+template <class Profile>
+CoarsePatterns coarse_patterns(int n, int group, double lp_per_mm, Profile profile) {
+  CoarsePatterns c;
+  c.D.patterns.resize(n);
+  for (int k = 0; k < n; ++k) {
+    const auto o = k % 2 ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars;
+    c.refs.push_back({k, o, group, 1, lp_per_mm});
+    ElementJob job;
+    job.element = ElementResult::of(group, 1, o, lp_per_mm, 10.0);
+    c.jobs.push_back(job);
+    SampledProfile p;
+    p.data = profile(k);
+    p.in_view = true;
+    p.pixels_used = 1000;
+    c.profiles.push_back({p});
+  }
+  return c;
+}
+
 }  // namespace
 
 TEST_CASE("chart level step: read off the plateaus of wide bars under a light ramp and blur") {
@@ -67,33 +95,17 @@ TEST_CASE("chart level step: no plateaus, no step") {
 }
 
 TEST_CASE("chart level step: coarse patterns that all clip are refused, and the problem says so") {
-  ChartDetection D;
-  D.patterns.resize(2);
-  std::vector<chart::PatternRef> refs;
-  std::vector<ElementJob> jobs;
-  std::vector<std::vector<SampledProfile>> profiles;
-  for (int k = 0; k < 2; ++k) {
-    const auto o = k ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars;
-    refs.push_back({k, o, 4, 1, 16.0});
-    ElementJob job;
-    job.element = ElementResult::of(4, 1, o, 16.0, 10.0);
-    jobs.push_back(job);
-    SampledProfile p;
-    p.data = three_bars(-0.9, 1.0, 0.1, 0.002, 1);
-    p.in_view = true;
-    p.pixels_used = 1000;
-    p.pixels_clipped = 300;  // dark bars pushed to 0
-    profiles.push_back({p});
-  }
+  CoarsePatterns c = coarse_patterns(2, 4, 16.0, [](int) { return three_bars(-0.9, 1.0, 0.1, 0.002, 1); });
+  for (auto& p : c.profiles) p.front().pixels_clipped = 300;  // dark bars pushed to 0
   ReferenceResult ref;
   std::string note;
-  CHECK_FALSE(chart::chart_level_steps(D, refs, jobs, profiles, MeasureOptions{}, ref, &note));
+  CHECK_FALSE(chart::chart_level_steps(c.D, c.refs, c.jobs, c.profiles, MeasureOptions{}, ref, &note));
   CHECK(note.find("2 of the 2 coarse pattern(s)") != std::string::npos);
   CHECK(note.find("clipped") != std::string::npos);
   // Unclipped, the same patterns give the step.
-  for (auto& p : profiles) p.front().pixels_clipped = 0;
+  for (auto& p : c.profiles) p.front().pixels_clipped = 0;
   note.clear();
-  CHECK(chart::chart_level_steps(D, refs, jobs, profiles, MeasureOptions{}, ref, &note));
+  CHECK(chart::chart_level_steps(c.D, c.refs, c.jobs, c.profiles, MeasureOptions{}, ref, &note));
   CHECK(ref.horizontal_bars.contrast == doctest::Approx(-0.9).epsilon(0.05));
 }
 
@@ -103,26 +115,11 @@ TEST_CASE("chart level step: bars a fifteenth of a bar off their placement still
   // placed read that as heavier tails and a deeper step (the generated
   // chart's: c -0.966 for -0.941). Three coarse patterns of each
   // orientation, 1 mm bars (0.5 lp/mm), each off by 0.07 mm.
-  ChartDetection D;
-  D.patterns.resize(6);
-  std::vector<chart::PatternRef> refs;
-  std::vector<ElementJob> jobs;
-  std::vector<std::vector<SampledProfile>> profiles;
-  for (int k = 0; k < 6; ++k) {
-    const auto o = k % 2 ? BarOrientation::vertical_bars : BarOrientation::horizontal_bars;
-    refs.push_back({k, o, -1, 1, 0.5});
-    ElementJob job;
-    job.element = ElementResult::of(-1, 1, o, 0.5, 10.0);
-    jobs.push_back(job);
-    SampledProfile p;
-    p.data = three_bars(-0.94, 1.0, 0.3, 0.001, 10 + k, k < 3 ? 0.07 : -0.07);
-    p.in_view = true;
-    p.pixels_used = 1000;
-    profiles.push_back({p});
-  }
+  const CoarsePatterns c = coarse_patterns(
+      6, -1, 0.5, [](int k) { return three_bars(-0.94, 1.0, 0.3, 0.001, 10 + k, k < 3 ? 0.07 : -0.07); });
   ReferenceResult ref;
   std::string note;
-  REQUIRE(chart::chart_level_steps(D, refs, jobs, profiles, MeasureOptions{}, ref, &note));
+  REQUIRE(chart::chart_level_steps(c.D, c.refs, c.jobs, c.profiles, MeasureOptions{}, ref, &note));
   for (const LevelStep& s : {ref.horizontal_bars, ref.vertical_bars}) {
     CHECK(s.contrast == doctest::Approx(-0.94).epsilon(0.003));
     CHECK(std::abs(s.contrast + 0.94) < 3 * s.contrast_sigma + 1e-3);
