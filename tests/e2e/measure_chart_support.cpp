@@ -202,7 +202,10 @@ void check_against_truth(const ChartRun& run, const std::string& label, int min_
     REQUIRE(want.interpolated_lp_per_mm);
     REQUIRE(measured.interpolated_lp_per_mm);
     const double rel = *measured.interpolated_lp_per_mm / *want.interpolated_lp_per_mm - 1;
-    CHECK(std::abs(rel) <= 0.03);
+    // 3 % until session 28, when the level step's fits freed the bars'
+    // shift: the worst scene (diffraction at 200 px/mm) now reads +2.0 %,
+    // the mirrored 180 deg view, once -2.6 %, -0.6 %.
+    CHECK(std::abs(rel) <= 0.025);
     MESSAGE(label << " " << name << ": G" << measured.group << "E" << measured.element << " (true G" << want.group << "E"
                   << want.element << "), interpolated " << *measured.interpolated_lp_per_mm << " vs true "
                   << *want.interpolated_lp_per_mm << " lp/mm (" << 100 * rel << " %); " << found << "/" << visible
