@@ -70,10 +70,9 @@ std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_wid
     sum[k.bar] += k.v / ground;
     count[k.bar] += 1;
   }
-  double mean = 0, sq = 0;
-  for (int i = 0; i < bars; ++i) mean += sum[i] / count[i] / bars;
-  for (int i = 0; i < bars; ++i) sq += std::pow(sum[i] / count[i] - mean, 2);
-  const double sd = std::sqrt(sq / (bars - 1));
+  std::vector<double> ratios;
+  for (int i = 0; i < bars; ++i) ratios.push_back(sum[i] / count[i]);
+  const double mean = tactres::mean(ratios), sd = sample_sd(ratios);
   // One bar's ratio stands for all: at least 1 % of the step, so that three
   // bars that happen to agree do not claim more than a print achieves.
   const double sigma = std::max(sd / std::sqrt(double(bars)), 0.01 * std::abs(mean - 1));
@@ -117,18 +116,23 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
     // grading fit has them (refine_shift_by_fit): the correlation centring
     // leaves them a tenth of a bar or so off, and with the shape free that
     // misplacement reads as heavier tails and a deeper step (the generated
-    // chart's G0E1: beta 1.2-1.7 for its Gaussian, |c| 1-6 % deep, every m
-    // 2-5 % low).
-    fo.fit_shift = true;
-    fo.max_shift_mm = 0.25 * refs[i].bar_width_mm();
-    const ProfileFit fit = fit_profile(p.data, fo);
+    // chart's G0E1: beta 1.2-1.7 for its Gaussian, each fit's |c| 1-6 %
+    // deep, the median's 1-3 %, every m 2-5 % low). Where the fit does not
+    // place them, they stay where the centring put them.
+    const double w_mm = refs[i].bar_width_mm();
+    const ProfileFitOptions free_fo = with_free_shift(fo, w_mm);
+    ProfileFit fit = fit_profile(p.data, free_fo);
+    const bool placed = shift_placed(fit, free_fo, w_mm);
+    if (!placed) fit = fit_profile(p.data, fo);
     if (fitted_step_usable(fit) && !at_bound(fit)) {
       s.push_back(step_of(fit));
       continue;
     }
-    // Plateaus a quarter bar inside each shape need wide bars.
+    // Plateaus a quarter bar inside each shape need wide bars, and the bars
+    // where the fit placed them.
     const std::optional<LevelStep> plateau =
-        e.px_per_bar >= 12 ? plateau_level_step(p.data, refs[i].bar_width_mm()) : std::nullopt;
+        e.px_per_bar >= 12 ? plateau_level_step(placed ? shifted_ideal(p.data, fit.shift_mm) : p.data, w_mm)
+                           : std::nullopt;
     if (plateau && plateau->distinct_from_zero(5)) {
       s.push_back(*plateau);
       from_plateaus.push_back(fmt::format("G{}E{} {}", e.group, e.element, to_string(e.orientation)));

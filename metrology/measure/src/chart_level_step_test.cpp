@@ -95,7 +95,7 @@ TEST_CASE("chart level step: no plateaus, no step") {
 }
 
 TEST_CASE("chart level step: coarse patterns that all clip are refused, and the problem says so") {
-  CoarsePatterns c = coarse_patterns(2, 4, 16.0, [](int) { return three_bars(-0.9, 1.0, 0.1, 0.002, 1); });
+  CoarsePatterns c = coarse_patterns(2, -1, 0.5, [](int) { return three_bars(-0.9, 1.0, 0.1, 0.002, 1); });
   for (auto& p : c.profiles) p.front().pixels_clipped = 300;  // dark bars pushed to 0
   ReferenceResult ref;
   std::string note;
@@ -109,7 +109,7 @@ TEST_CASE("chart level step: coarse patterns that all clip are refused, and the 
   CHECK(ref.horizontal_bars.contrast == doctest::Approx(-0.9).epsilon(0.05));
 }
 
-TEST_CASE("chart level step: bars a fifteenth of a bar off their placement still give the true step") {
+TEST_CASE("chart level step: bars 0.07 of a bar off their placement still give the true step") {
   // The correlation centring leaves a pattern a tenth of a bar or so off;
   // with the PSF shape free, a fit that holds the bars where they were
   // placed read that as heavier tails and a deeper step (the generated
@@ -124,4 +124,40 @@ TEST_CASE("chart level step: bars a fifteenth of a bar off their placement still
     CHECK(s.contrast == doctest::Approx(-0.94).epsilon(0.003));
     CHECK(std::abs(s.contrast + 0.94) < 3 * s.contrast_sigma + 1e-3);
   }
+}
+
+TEST_CASE("chart level step: coarse patterns that disagree widen the step's sigma to their scatter") {
+  // Three patterns an orientation whose steps differ by 0.04 (a print's
+  // uneven ink, a misfit each fit claims to know to +-0.001): the median
+  // stands, its sigma is their sample sd.
+  const double steps[3] = {-0.90, -0.94, -0.98};
+  const CoarsePatterns c =
+      coarse_patterns(6, -1, 0.5, [&](int k) { return three_bars(steps[k / 2], 1.0, 0.3, 0.001, 20 + k); });
+  ReferenceResult ref;
+  std::string note;
+  REQUIRE(chart::chart_level_steps(c.D, c.refs, c.jobs, c.profiles, MeasureOptions{}, ref, &note));
+  for (const LevelStep& s : {ref.horizontal_bars, ref.vertical_bars}) {
+    CHECK(s.contrast == doctest::Approx(-0.94).epsilon(0.003));
+    CHECK(s.contrast_sigma == doctest::Approx(0.04).epsilon(0.05));
+  }
+}
+
+TEST_CASE("chart level step: a shift the fit ends on the range's edge does not place the bars") {
+  // Ceres' covariance is blind to the bound: a shift stopped at a quarter
+  // bar still reads a small sigma. Bars 0.07 bar off are placed there;
+  // bars half a bar off stop at the edge and are not (chart_level_steps
+  // then fits them where the centring put them, as refine_shift_by_fit
+  // leaves them).
+  ProfileFitOptions fo;
+  fo.fit_contrast = true;
+  const ProfileFitOptions free_fo = chart::with_free_shift(fo, 1.0);
+  CHECK(free_fo.fit_shift);
+  CHECK(free_fo.max_shift_mm == doctest::Approx(0.25));
+  const ProfileFit near = fit_profile(three_bars(-0.94, 1.0, 0.3, 0.001, 40, 0.07), free_fo);
+  CHECK(chart::shift_placed(near, free_fo, 1.0));
+  CHECK(near.shift_mm == doctest::Approx(0.07).epsilon(0.05));
+  const ProfileFit far = fit_profile(three_bars(-0.94, 1.0, 0.3, 0.001, 41, 0.5), free_fo);
+  REQUIRE(far.usable);
+  CHECK(std::abs(far.shift_mm) > 0.99 * 0.25);
+  CHECK_FALSE(chart::shift_placed(far, free_fo, 1.0));
 }
