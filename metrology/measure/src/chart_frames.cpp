@@ -282,14 +282,16 @@ PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const
 // chase its noise; or the shift stopped at the range's edge, where Ceres'
 // covariance, blind to the bound, still reads small), the pattern stays
 // where it was.
+constexpr double kMaxShiftBars = 0.25;  // with_free_shift's range, in bar widths either way
+
 ProfileFitOptions with_free_shift(ProfileFitOptions fo, double w_mm) {
   fo.fit_shift = true;
-  fo.max_shift_mm = 0.25 * w_mm;
+  fo.max_shift_mm = kMaxShiftBars * w_mm;
   return fo;
 }
 
-bool shift_placed(const ProfileFit& f, const ProfileFitOptions& fo, double w_mm) {
-  return f.usable && f.shift_sigma_mm < 0.1 * w_mm && std::abs(f.shift_mm) < 0.99 * fo.max_shift_mm;
+bool shift_placed(const ProfileFit& f, double w_mm) {
+  return f.usable && f.shift_sigma_mm < 0.1 * w_mm && std::abs(f.shift_mm) < 0.99 * kMaxShiftBars * w_mm;
 }
 
 ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& options, double w_mm,
@@ -297,7 +299,7 @@ ProfileData refine_shift_by_fit(const ProfileData& d, const ProfileFitOptions& o
   const ProfileFitOptions fo = with_free_shift(options, w_mm);
   if (shift_mm) *shift_mm = 0;
   const ProfileFit f = fit_profile(d, fo);
-  if (!shift_placed(f, fo, w_mm)) return d;
+  if (!shift_placed(f, w_mm)) return d;
   if (shift_mm) *shift_mm = f.shift_mm;
   return shifted_ideal(d, f.shift_mm);
 }

@@ -85,10 +85,10 @@ class PlacementStore {
 // `fo` with the pattern's bars free to move along u within a quarter of a
 // bar of width `w_mm` (ProfileFitOptions::fit_shift).
 ProfileFitOptions with_free_shift(ProfileFitOptions fo, double w_mm);
-// Whether a fit made with_free_shift placed the bars: usable, the shift's
-// sigma under a tenth of a bar, and short of the range's edge (where
-// Ceres' covariance, blind to the bound, still reads small).
-bool shift_placed(const ProfileFit& f, const ProfileFitOptions& fo, double w_mm);
+// Whether a fit made with_free_shift(.., w_mm) placed the bars: usable,
+// the shift's sigma under a tenth of a bar, and short of the range's edge
+// (where Ceres' covariance, blind to the bound, still reads small).
+bool shift_placed(const ProfileFit& f, double w_mm);
 
 // The shift the profile model itself prefers, to a small fraction of a bar
 // of width `w_mm`; returns the profile with its ideal moved, and the shift

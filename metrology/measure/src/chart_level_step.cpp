@@ -120,9 +120,8 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
     // deep, the median's 1-3 %, every m 2-5 % low). Where the fit does not
     // place them, they stay where the centring put them.
     const double w_mm = refs[i].bar_width_mm();
-    const ProfileFitOptions free_fo = with_free_shift(fo, w_mm);
-    ProfileFit fit = fit_profile(p.data, free_fo);
-    const bool placed = shift_placed(fit, free_fo, w_mm);
+    ProfileFit fit = fit_profile(p.data, with_free_shift(fo, w_mm));
+    const bool placed = shift_placed(fit, w_mm);
     if (!placed) fit = fit_profile(p.data, fo);
     if (fitted_step_usable(fit) && !at_bound(fit)) {
       s.push_back(step_of(fit));

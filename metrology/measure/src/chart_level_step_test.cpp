@@ -154,10 +154,10 @@ TEST_CASE("chart level step: a shift the fit ends on the range's edge does not p
   CHECK(free_fo.fit_shift);
   CHECK(free_fo.max_shift_mm == doctest::Approx(0.25));
   const ProfileFit near = fit_profile(three_bars(-0.94, 1.0, 0.3, 0.001, 40, 0.07), free_fo);
-  CHECK(chart::shift_placed(near, free_fo, 1.0));
+  CHECK(chart::shift_placed(near, 1.0));
   CHECK(near.shift_mm == doctest::Approx(0.07).epsilon(0.05));
   const ProfileFit far = fit_profile(three_bars(-0.94, 1.0, 0.3, 0.001, 41, 0.5), free_fo);
   REQUIRE(far.usable);
   CHECK(std::abs(far.shift_mm) > 0.99 * 0.25);
-  CHECK_FALSE(chart::shift_placed(far, free_fo, 1.0));
+  CHECK_FALSE(chart::shift_placed(far, 1.0));
 }
