@@ -3,6 +3,7 @@
 // made of them, and elements made of pairs of patterns.
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -478,14 +479,17 @@ std::vector<int> run_components(const cv::Mat& mask, std::vector<MaskRun>& runs)
     const size_t row_begin = runs.size();
     for (int x = 0; x < mask.cols;) {
       if (x + 8 <= mask.cols) {
+        // Eight mask bytes at once: none marked, or the first marked one
+        // found from the word's zero bits before it (memory order is the
+        // low bits first on a little-endian machine).
         std::uint64_t word;
         std::memcpy(&word, m + x, sizeof word);
         if (!word) {
           x += 8;
           continue;
         }
-      }
-      if (!m[x]) {
+        x += (std::endian::native == std::endian::little ? std::countr_zero(word) : std::countl_zero(word)) / 8;
+      } else if (!m[x]) {
         ++x;
         continue;
       }
