@@ -135,6 +135,22 @@ bool keep_under_floor_if_seen(ElementResult& r, const SampledProfile& sp, const 
 
 // Fits `data` (the strip's profile, prepared) and grades r by the fit:
 // grade_element's contract from the fit on.
+
+// An ok element whose LSF shape stops on its bound, where the data press
+// beyond it (ProfileFit::beta_bound_sigmas): its m is the bounded family's,
+// and says so when lifting the bound would move m by more than m_sigma.
+// (Below beta 1 the stable laws are a core with a halo; above 4 a flat
+// disc. The bounds stay: at a floor of 0.5, m followed the floor on real
+// frames, docs/CHART.md.)
+void note_shape_bound(ElementResult& r, const ProfileFit& fit) {
+  constexpr double kPressSigmas = 2;
+  if (fit.beta_bound_sigmas < kPressSigmas) return;
+  const double dm = fit.transfer_change_unbounded(r.lp_per_mm);
+  if (!(std::abs(dm) > r.m_sigma)) return;
+  r.note += fmt::format("{}the LSF shape stops on its bound (beta {:.3g}), the data pressing {:.1f} sigma beyond it: "
+                        "free of the bound, m would move by about {:+.3f}, more than m_sigma",
+                        r.note.empty() ? "" : "; ", fit.beta, fit.beta_bound_sigmas, dm);
+}
 void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& data, const ProfileFitOptions& fo,
                double contrast_sigma, const MeasureOptions& options, std::pair<double, double>& warm_lsf,
                bool model_mismatch, bool read_gap_dips, bool clipped) {
@@ -231,6 +247,7 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
       r.note = fmt::format("poor fit (reduced chi^2 {:.3g}): the profile model does not describe these bars well; "
                            "m_sigma is widened by sqrt(chi^2){}",
                            fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
+    note_shape_bound(r, fit);
   }
   if (read_gap_dips && r.status == ElementStatus::ok && fo.signature == Signature::albedo)
     note_flat_gap(r, sp, data, fo.contrast);

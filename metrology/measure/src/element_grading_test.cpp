@@ -89,24 +89,36 @@ namespace {
 // the ground above the clip level 1 where `ground` > 1; its strip's profile
 // sampled with clip level 1. `period_scale` != 1 draws the bars at another
 // period than the layout's.
-SampledProfile clipped_triplet(double ground, double blur_px, double period_scale = 1.0, double px_per_mm = 40) {
-  constexpr double w_mm = 0.1;
+constexpr double kBarMm = 0.1;
+
+// The bars' coverage (0 or 1) of a 200 x 200 px frame about the triplet.
+cv::Mat triplet_ink(double period_scale, double px_per_mm) {
   cv::Mat ink(200, 200, CV_32F, cv::Scalar(0));
   for (int y = 0; y < ink.rows; ++y)
     for (int x = 0; x < ink.cols; ++x) {
       const double u = (x + 0.5 - 100) / px_per_mm, v = (y + 0.5 - 100) / px_per_mm;
       for (int k = -1; k <= 1; ++k)
-        if (std::abs(u - 2 * k * w_mm * period_scale) < 0.5 * w_mm && std::abs(v) < 2.5 * w_mm) ink.at<float>(y, x) = 1;
+        if (std::abs(u - 2 * k * kBarMm * period_scale) < 0.5 * kBarMm && std::abs(v) < 2.5 * kBarMm)
+          ink.at<float>(y, x) = 1;
     }
-  cv::GaussianBlur(ink, ink, {0, 0}, blur_px);
-  cv::Mat lum = ground * (1 - 0.8 * ink);
-  cv::min(lum, 1.0, lum);
-  const test::TripletLayout triplet = test::vertical_triplet(w_mm);
-  const ElementLayout& e = triplet.element;
+  return ink;
+}
+
+// The layout triplet's strip profile in `lum`, with clip level 1.
+SampledProfile triplet_profile(const cv::Mat& lum, double px_per_mm) {
+  const test::TripletLayout triplet = test::vertical_triplet(kBarMm);
   const IndexedArtwork artwork(triplet.shapes);
   const PatternFrame frame({100, 100}, {1, 0}, px_per_mm);
   const ProfileSamplingOptions so;
-  return sample_strip(lum, frame, artwork, element_strip(e, so), so, 1.0);
+  return sample_strip(lum, frame, artwork, element_strip(triplet.element, so), so, 1.0);
+}
+
+SampledProfile clipped_triplet(double ground, double blur_px, double period_scale = 1.0, double px_per_mm = 40) {
+  cv::Mat ink = triplet_ink(period_scale, px_per_mm);
+  cv::GaussianBlur(ink, ink, {0, 0}, blur_px);
+  cv::Mat lum = ground * (1 - 0.8 * ink);
+  cv::min(lum, 1.0, lum);
+  return triplet_profile(lum, px_per_mm);
 }
 
 ElementResult graded(const SampledProfile& sp, double px_per_bar, bool read_gap_dips = false) {
@@ -310,4 +322,22 @@ TEST_CASE("elements not found: a chart photograph's chain lists the ones it pass
   decide_limits(L, c, {}, false);
   CHECK(L.vertical_parts.optical.element == 5);
   CHECK(L.vertical_parts.optical.bridged.empty());
+}
+
+TEST_CASE("the LSF shape on its bound: an ok element says m holds for the bounded family, where that moves m") {
+  // 55 % of the light in a core of 1.5 px, 45 % in a halo of 8 px (4 px
+  // per bar): tails heavier than any beta >= 1 gives.
+  const cv::Mat ink = triplet_ink(1.0, 40);
+  cv::Mat core, halo;
+  cv::GaussianBlur(ink, core, {0, 0}, 1.5);
+  cv::GaussianBlur(ink, halo, {0, 0}, 8.0);
+  const ElementResult haloed = graded(triplet_profile(0.9 * (1 - 0.8 * (0.55 * core + 0.45 * halo)), 40), 4.0);
+  REQUIRE(haloed.status == ElementStatus::ok);
+  CAPTURE(haloed.note);
+  CHECK(haloed.beta == doctest::Approx(1.0));
+  CHECK(haloed.note.find("the LSF shape stops on its bound (beta 1)") != std::string::npos);
+  // A Gaussian LSF: beta inside its range, no such note.
+  const ElementResult gaussian = graded(clipped_triplet(0.9, 1.5), 4.0);
+  REQUIRE(gaussian.status == ElementStatus::ok);
+  CHECK(gaussian.note.find("bound") == std::string::npos);
 }

@@ -296,14 +296,25 @@ double ProfileFit::transfer(double f) const {
   return std::exp(-std::pow(f / nu0_per_mm, beta));
 }
 
+namespace {
+// dT/d(log nu0) and dT/d(beta) at f.
+std::pair<double, double> transfer_gradient(const ProfileFit& fit, double f) {
+  const double m = fit.transfer(f);
+  const double q = std::pow(f / fit.nu0_per_mm, fit.beta);
+  return {m * q * fit.beta, -m * q * std::log(f / fit.nu0_per_mm)};
+}
+}  // namespace
+
 double ProfileFit::transfer_sigma(double f) const {
-  const double m = transfer(f);
-  const double q = std::pow(f / nu0_per_mm, beta);
-  const double dm_dlognu0 = m * q * beta;
-  const double dm_dbeta = -m * q * std::log(f / nu0_per_mm);
+  const auto [dm_dlognu0, dm_dbeta] = transfer_gradient(*this, f);
   const double var = dm_dlognu0 * dm_dlognu0 * var_log_nu0 + dm_dbeta * dm_dbeta * var_beta +
                      2 * dm_dlognu0 * dm_dbeta * cov_log_nu0_beta;
   return std::sqrt(std::max(var, 0.0));
+}
+
+double ProfileFit::transfer_change_unbounded(double f) const {
+  const auto [dm_dlognu0, dm_dbeta] = transfer_gradient(*this, f);
+  return dm_dlognu0 * unbounded_step_log_nu0 + dm_dbeta * unbounded_step_beta;
 }
 
 // Why `data` cannot be fitted at all, or null. Non-finite geometry or
@@ -381,6 +392,31 @@ static void constrain(ceres::Problem& problem, double* x, const ProfileData& dat
   }
 }
 
+// ProfileFit::unbounded_step_*: the Gauss-Newton step -C J^T r from the
+// solution x, with C the (unscaled) covariance of the free parameters
+// (zero rows for the held ones) and J, r the weighted residuals' Jacobian
+// and values; beta's sigma as the fit reports it (scaled by chi^2).
+// `outward`: -1 on the lower bound, +1 on the upper; a step back into the
+// range leaves the bound by nothing.
+static void set_unbounded_step(const ProfileCost& cost, const double* x, const double* cov, double scale,
+                               int outward, ProfileFit& out) {
+  const size_t n = static_cast<size_t>(cost.residual_count());
+  std::vector<double> r(n), jacobian(n * kParamCount);
+  const double* parameters[] = {x};
+  double* jacobians[] = {jacobian.data()};
+  if (!cost.Evaluate(parameters, r.data(), jacobians)) return;
+  double gradient[kParamCount] = {};
+  for (size_t i = 0; i < n; ++i)
+    for (int k = 0; k < kParamCount; ++k) gradient[k] += jacobian[i * kParamCount + k] * r[i];
+  double step[kParamCount] = {};
+  for (int j = 0; j < kParamCount; ++j)
+    for (int k = 0; k < kParamCount; ++k) step[j] -= cov[j * kParamCount + k] * gradient[k];
+  const double sd_beta = std::sqrt(std::max(0.0, scale * cov[kBeta * kParamCount + kBeta]));
+  out.unbounded_step_log_nu0 = step[kLogNu0];
+  out.unbounded_step_beta = step[kBeta];
+  out.beta_bound_sigmas = sd_beta > 0 ? std::max(0.0, outward * step[kBeta]) / sd_beta : 0.0;
+}
+
 // The fit in the data's own units (fit_profile scales them first).
 static ProfileFit fit_scaled(const ProfileData& data, const ProfileFitOptions& options) {
   ProfileFit out;
@@ -448,6 +484,8 @@ static ProfileFit fit_scaled(const ProfileData& data, const ProfileFitOptions& o
   double cov[kParamCount * kParamCount];
   covariance.GetCovarianceBlock(x, x, cov);
   const double scale = std::max(1.0, out.chi2_reduced);
+  if (options.fit_shape && (x[kBeta] <= options.beta_min || x[kBeta] >= options.beta_max))
+    set_unbounded_step(*cost, x, cov, scale, x[kBeta] <= options.beta_min ? -1 : 1, out);
   out.var_log_nu0 = cov[kLogNu0 * kParamCount + kLogNu0] * scale;
   out.var_beta = options.fit_shape ? cov[kBeta * kParamCount + kBeta] * scale : 0.0;
   out.cov_log_nu0_beta = options.fit_shape ? cov[kLogNu0 * kParamCount + kBeta] * scale : 0.0;

@@ -303,3 +303,41 @@ TEST_CASE("the fit does not depend on the data's units (a linear float image in 
     CHECK(fit.residual_rms == doctest::Approx(scale * unit.residual_rms).epsilon(1e-4));
   }
 }
+
+TEST_CASE("the shape's bound: a core with a halo presses beta onto 1, and the unbounded step says where m would go") {
+  const Bars bars{0.07};
+  const double f = 1 / (2 * bars.w);
+  const double c = -0.8;
+  // 60 % of the light in a core of 0.3 bar widths, 40 % in a halo of 2:
+  // heavier tails than any beta >= 1 gives (beta < 1 in this family).
+  const double s_core = 0.3 * bars.w, s_halo = 2.0 * bars.w, core = 0.6;
+  auto halo = [&](double u) {
+    return 200.0 * (1 + c * (core * bars.blurred(u, s_core) + (1 - core) * bars.blurred(u, s_halo)));
+  };
+  std::mt19937_64 rng(5);
+  const ProfileData d = make_profile(bars, bars.w / 8, 10 * bars.w, 6 * bars.w, halo, 0.05, &rng);
+  ProfileFitOptions o;
+  o.contrast = c;
+  const ProfileFit fit = fit_profile(d, o);
+  REQUIRE(fit.usable);
+  CHECK(fit.beta == doctest::Approx(o.beta_min));
+  CHECK(fit.beta_bound_sigmas > 2);
+  CHECK(fit.unbounded_step_beta < 0);  // beyond the lower bound, not back into the range
+  CHECK(std::abs(fit.transfer_change_unbounded(f)) > fit.transfer_sigma(f));
+  // The step points toward the halo's true transfer at f (0.385), which
+  // the bounded family misses (0.374 here, with chi^2 ~1200).
+  const double m_true = core * std::exp(-2 * kPi * kPi * s_core * s_core * f * f) +
+                        (1 - core) * std::exp(-2 * kPi * kPi * s_halo * s_halo * f * f);
+  const double m = fit.transfer(f);
+  CHECK(std::abs(m + fit.transfer_change_unbounded(f) - m_true) < std::abs(m - m_true));
+
+  // A Gaussian LSF ends inside the range: no step, no press.
+  const double s = 0.5 * bars.w;
+  auto gauss = [&](double u) { return 200.0 * (1 + c * bars.blurred(u, s)); };
+  const ProfileFit inside = fit_profile(make_profile(bars, bars.w / 8, 10 * bars.w, 6 * bars.w, gauss, 0.05, &rng), o);
+  REQUIRE(inside.usable);
+  CHECK(inside.beta > o.beta_min);
+  CHECK(inside.beta < o.beta_max);
+  CHECK(inside.beta_bound_sigmas == 0);
+  CHECK(inside.transfer_change_unbounded(f) == 0);
+}

@@ -120,6 +120,14 @@ struct ProfileFit {
   // when the model fits worse than the noise (never scaled down).
   double var_log_nu0 = 0, var_beta = 0, cov_log_nu0_beta = 0;
   double chi2_reduced = 0;
+  // With the shape fitted and beta ending on one of its bounds: where the
+  // fit would go with the bounds lifted, to first order (one Gauss-Newton
+  // step from the fit, in log nu0 and beta), and how many of beta's
+  // sigmas that step leaves the bound by. All 0 when beta ends inside its
+  // range, or the shape is held. A step of several sigmas means the data
+  // press on the bound: the LSF family ends there, and m with it.
+  double unbounded_step_log_nu0 = 0, unbounded_step_beta = 0;
+  double beta_bound_sigmas = 0;
   double residual_rms = 0;  // RMS of model - data, in image units
   double signal_rms = 0;    // RMS of the fitted signature alone (model - background), image units
   int residual_count = 0;   // bins fitted: measurements and bounds
@@ -128,6 +136,8 @@ struct ProfileFit {
 
   double transfer(double lp_per_mm) const;        // T(f) = m
   double transfer_sigma(double lp_per_mm) const;  // its standard error
+  // T(f)'s change to first order along the unbounded step (0 off the bounds).
+  double transfer_change_unbounded(double lp_per_mm) const;
 };
 
 ProfileFit fit_profile(const ProfileData& data, const ProfileFitOptions& options);
