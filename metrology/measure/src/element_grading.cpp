@@ -133,9 +133,6 @@ bool keep_under_floor_if_seen(ElementResult& r, const SampledProfile& sp, const 
   return false;
 }
 
-// Fits `data` (the strip's profile, prepared) and grades r by the fit:
-// grade_element's contract from the fit on.
-
 // An ok element whose LSF shape stops on its bound, where the data press
 // beyond it (ProfileFit::beta_bound_sigmas): its m is the bounded family's,
 // and says so when lifting the bound would move m by more than m_sigma.
@@ -151,6 +148,9 @@ void note_shape_bound(ElementResult& r, const ProfileFit& fit) {
                         "free of the bound, m would move by about {:+.3f}, more than m_sigma",
                         r.note.empty() ? "" : "; ", fit.beta, fit.beta_bound_sigmas, dm);
 }
+
+// Fits `data` (the strip's profile, prepared) and grades r by the fit:
+// grade_element's contract from the fit on.
 void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& data, const ProfileFitOptions& fo,
                double contrast_sigma, const MeasureOptions& options, std::pair<double, double>& warm_lsf,
                bool model_mismatch, bool read_gap_dips, bool clipped) {
