@@ -368,7 +368,8 @@ namespace {
 // One column of five elements of the series, as a crop of a chart that
 // shows a single column: each element a horizontal-bar triplet left of a
 // vertical-bar one, 2^(-1/6) the size of the one above, dark on light.
-cv::Mat one_column(double first_bar_px, const std::vector<double>& size_error = {1, 1, 1, 1, 1}) {
+cv::Mat one_column(double first_bar_px, const std::vector<double>& size_error = {1, 1, 1, 1, 1},
+                   bool vertical_bars = true) {
   cv::Mat img(900, 500, CV_32F);
   cv::RNG rng(11);
   rng.fill(img, cv::RNG::NORMAL, 0.6, 0.02);
@@ -378,7 +379,7 @@ cv::Mat one_column(double first_bar_px, const std::vector<double>& size_error = 
     const double h_x = 120, v_x = h_x + 7 * w;  // H-to-V centre distance: 3.5 periods
     for (int b = -1; b <= 1; ++b) {
       img(cv::Rect(cv::Rect2d(h_x - 2.5 * w, y + 2 * b * w - 0.5 * w, 5 * w, w))).setTo(0.1);  // horizontal bars
-      img(cv::Rect(cv::Rect2d(v_x + 2 * b * w - 0.5 * w, y - 2.5 * w, w, 5 * w))).setTo(0.1);  // vertical bars
+      if (vertical_bars) img(cv::Rect(cv::Rect2d(v_x + 2 * b * w - 0.5 * w, y - 2.5 * w, w, 5 * w))).setTo(0.1);
     }
     y += 9 * w;
   }
@@ -403,4 +404,21 @@ TEST_CASE("chart detection: a single column in view is indexed step by step, wit
       CHECK(d.elements[k].relative_index == static_cast<int>(k));
     }
   }
+}
+
+TEST_CASE("chart detection: a column whose vertical-bar patterns are out of view says so, and what to do") {
+  // The horizontal-bar triplets alone (dev_13: a lit disc that cuts off
+  // every partner): patterns, but no element.
+  const ChartDetection d = detect_chart(one_column(14, {1, 1, 1, 1, 1}, false), {});
+  CHECK_FALSE(d.found);
+  CHECK(d.patterns.size() >= 3);
+  CAPTURE(d.problem);
+  CHECK(d.problem.find("all with bars along the image's x axis") != std::string::npos);
+  CHECK(d.problem.find("crop to one pattern") != std::string::npos);
+  // Turned by 90 degrees: along y.
+  cv::Mat turned;
+  cv::rotate(one_column(14, {1, 1, 1, 1, 1}, false), turned, cv::ROTATE_90_CLOCKWISE);
+  const ChartDetection t = detect_chart(turned, {});
+  CHECK_FALSE(t.found);
+  CHECK(t.problem.find("all with bars along the image's y axis") != std::string::npos);
 }
