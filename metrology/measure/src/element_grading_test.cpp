@@ -325,13 +325,13 @@ TEST_CASE("elements not found: a chart photograph's chain lists the ones it pass
 }
 
 TEST_CASE("the LSF shape on its bound: an ok element says m holds for the bounded family, where that moves m") {
-  // 55 % of the light in a core of 1.5 px, 45 % in a halo of 8 px (4 px
+  // Half the light in a core of 1.2 px, half in a halo of 12 px (4 px
   // per bar): tails heavier than any beta >= 1 gives.
   const cv::Mat ink = triplet_ink(1.0, 40);
   cv::Mat core, halo;
-  cv::GaussianBlur(ink, core, {0, 0}, 1.5);
-  cv::GaussianBlur(ink, halo, {0, 0}, 8.0);
-  const ElementResult haloed = graded(triplet_profile(0.9 * (1 - 0.8 * (0.55 * core + 0.45 * halo)), 40), 4.0);
+  cv::GaussianBlur(ink, core, {0, 0}, 1.2);
+  cv::GaussianBlur(ink, halo, {0, 0}, 12.0);
+  const ElementResult haloed = graded(triplet_profile(0.9 * (1 - 0.8 * (0.5 * core + 0.5 * halo)), 40), 4.0);
   REQUIRE(haloed.status == ElementStatus::ok);
   CAPTURE(haloed.note);
   CHECK(haloed.beta == doctest::Approx(1.0));
