@@ -1,6 +1,7 @@
 // Steps 1-3 of detect_chart (chart_detect.h): bars found by binarising
 // against the local mean at a ladder of window sizes, three-bar patterns
-// made of them, and elements made of pairs of patterns.
+// made of them, and elements made of pairs of patterns (or why there are
+// none).
 
 #include <algorithm>
 #include <bit>
@@ -8,9 +9,11 @@
 #include <cstdint>
 #include <cstring>
 #include <map>
+#include <string>
 #include <tuple>
 #include <vector>
 
+#include <fmt/format.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -460,6 +463,36 @@ Pairing pair_patterns(const std::vector<BarPattern>& P) {
     if (refined.elements.size() >= best.elements.size()) best = std::move(refined);
   }
   return best;
+}
+
+// Why patterns made no element, and what to do. All of one direction (a
+// microscope frame whose lit disc shows one column's horizontal-bar
+// triplets, their partners cut off: dev_13) says so, since bringing the
+// other pattern into view, or cropping to one, is then the remedy.
+std::string no_element_problem(const std::vector<BarPattern>& P) {
+  if (P.empty())
+    return "no USAF-1951 chart found: no three-bar pattern in the image (is the chart in view, in focus and lit?)";
+  size_t along_x = 0;
+  double widest_bar_px = 0;
+  for (const BarPattern& p : P) {
+    along_x += std::abs(p.bar_dir.x) >= std::abs(p.bar_dir.y);
+    widest_bar_px = std::max(widest_bar_px, 0.5 * p.period_px);
+  }
+  const std::string what = fmt::format("no USAF-1951 chart found: {} three-bar pattern(s)", P.size());
+  if (along_x == P.size() || along_x == 0) {
+    // One pattern measured alone needs bars this wide (single_pattern_element).
+    const std::string crop =
+        widest_bar_px >= ChartDetection::kSinglePatternMinBarPx
+            ? ", or crop the image to one pattern to measure it alone"
+            : "";
+    return fmt::format("{}, {} bars along the image's {} axis, and none with bars across them beside one of the "
+                       "same size, as each element has (cut off, unlit, or blurred in that direction?): bring a whole "
+                       "element into view{}",
+                       what, P.size() == 1 ? "its" : "all with", along_x ? "x" : "y", crop);
+  }
+  return fmt::format("{} ({} with bars along the image's x axis, {} along y) but no element: no two of them are of "
+                     "one size side by side, as an element's horizontal and vertical patterns are",
+                     what, along_x, P.size() - along_x);
 }
 
 // Components by runs (chart_detect_internal.h). A few per cent of the

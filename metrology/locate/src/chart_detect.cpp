@@ -483,26 +483,6 @@ bool single_pattern_element(ChartDetection& D, const PatternsFound& found, const
   return false;
 }
 
-// Why patterns made no element, and what to do. All of one direction (a
-// microscope frame whose lit disc shows one column's horizontal-bar
-// triplets, their partners cut off: dev_13) says so, since bringing the
-// other pattern into view, or cropping to one, is then the remedy.
-std::string no_element_problem(const std::vector<BarPattern>& P) {
-  if (P.empty())
-    return "no USAF-1951 chart found: no three-bar pattern in the image (is the chart in view, in focus and lit?)";
-  size_t along_x = 0;
-  for (const BarPattern& p : P) along_x += std::abs(p.bar_dir.x) >= std::abs(p.bar_dir.y);
-  const std::string what = fmt::format("no USAF-1951 chart found: {} three-bar pattern(s)", P.size());
-  if (along_x == P.size() || along_x == 0)
-    return fmt::format("{}, all with bars along the image's {} axis, so no element (such a pattern beside one of "
-                       "its size with bars across it): the partners are cut off or unlit; bring a whole element "
-                       "into view, or crop to one pattern to measure it alone",
-                       what, along_x ? "x" : "y");
-  return fmt::format("{} ({} with bars along the image's x axis, {} along y) but no element: no two of them are of "
-                     "one size side by side, as an element's horizontal and vertical patterns are",
-                     what, along_x, P.size() - along_x);
-}
-
 }  // namespace
 
 ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& options) {
@@ -546,10 +526,18 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   Pairing& pairing = D.light_bars ? el : ed;
   D.unpaired_patterns = pairing.unpaired;
   D.hv_period_ratio = std::exp(pairing.ln_hv_ratio);
+  const bool none_paired = el.elements.empty() && ed.elements.empty();
   std::vector<ChartElement> elements = std::move(pairing.elements);
   D.separation_periods = drop_odd_separations(D, elements);
   if (elements.empty() && single_pattern_element(D, found, options)) return D;
   if (elements.empty()) {
+    // No element of either polarity: the patterns of the one with more
+    // say what is in view (a negative chart's are its light ones).
+    if (none_paired && found.light.size() > found.dark.size()) {
+      D.light_bars = true;
+      D.patterns = found.light;
+      D.unpaired_patterns = el.unpaired;
+    }
     D.problem = no_element_problem(D.patterns);
     return D;
   }

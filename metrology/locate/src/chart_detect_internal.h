@@ -12,6 +12,7 @@
 #include <cmath>
 #include <deque>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
@@ -108,6 +109,9 @@ struct Pairing {
   double ln_hv_ratio = 0;  // ln of the H/V period ratio paired at (ChartDetection::hv_period_ratio)
 };
 Pairing pair_patterns(const std::vector<BarPattern>& P);
+// ChartDetection::problem when the patterns P (of one polarity) make no
+// element: what is in view, and what to do.
+std::string no_element_problem(const std::vector<BarPattern>& P);
 
 // ---------------------------------------------------------------------------
 // The image scale over the chart (chart_detect.cpp): perspective makes it

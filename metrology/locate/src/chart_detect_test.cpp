@@ -414,11 +414,24 @@ TEST_CASE("chart detection: a column whose vertical-bar patterns are out of view
   CHECK(d.patterns.size() >= 3);
   CAPTURE(d.problem);
   CHECK(d.problem.find("all with bars along the image's x axis") != std::string::npos);
-  CHECK(d.problem.find("crop to one pattern") != std::string::npos);
+  CHECK(d.problem.find("crop the image to one pattern") != std::string::npos);  // bars of 14 px and less
   // Turned by 90 degrees: along y.
   cv::Mat turned;
   cv::rotate(one_column(14, {1, 1, 1, 1, 1}, false), turned, cv::ROTATE_90_CLOCKWISE);
   const ChartDetection t = detect_chart(turned, {});
   CHECK_FALSE(t.found);
   CHECK(t.problem.find("all with bars along the image's y axis") != std::string::npos);
+  // A negative chart's column (light bars on a dark ground): its patterns
+  // are the light ones, and the message counts those.
+  const ChartDetection negative = detect_chart(0.7 - one_column(14, {1, 1, 1, 1, 1}, false), {});
+  CHECK_FALSE(negative.found);
+  CHECK(negative.light_bars);
+  CAPTURE(negative.problem);
+  CHECK(negative.problem.find("all with bars along the image's x axis") != std::string::npos);
+  // Bars under the width one pattern alone is measured at: no crop offered.
+  const ChartDetection fine = detect_chart(one_column(5, {1, 1, 1, 1, 1}, false), {});
+  CHECK_FALSE(fine.found);
+  CAPTURE(fine.problem);
+  CHECK(fine.problem.find("bars along the image's x axis") != std::string::npos);
+  CHECK(fine.problem.find("crop") == std::string::npos);
 }

@@ -144,9 +144,12 @@ void note_shape_bound(ElementResult& r, const ProfileFit& fit) {
   if (fit.beta_bound_sigmas < kPressSigmas) return;
   const double dm = fit.transfer_change_unbounded(r.lp_per_mm);
   if (!(std::abs(dm) > r.m_sigma)) return;
-  r.note += fmt::format("{}the LSF shape stops on its bound (beta {:.3g}), the data pressing {:.1f} sigma beyond it: "
-                        "free of the bound, m would move by about {:+.3f}, more than m_sigma",
-                        r.note.empty() ? "" : "; ", fit.beta, fit.beta_bound_sigmas, dm);
+  const bool lower = fit.unbounded_step_beta < 0;
+  r.note += fmt::format("{}the LSF shape is held at its bound beta = {:.3g} (the data favour beta {} it by {:.1f} "
+                        "sigma): m and the status are the bounded model's; with the bound lifted m would be about "
+                        "{:.3f} ({:+.2g}; m_sigma {:.2g})",
+                        r.note.empty() ? "" : "; ", fit.beta, lower ? "below" : "above", fit.beta_bound_sigmas,
+                        std::clamp(r.m + dm, 0.0, 1.0), dm, r.m_sigma);
 }
 
 // Fits `data` (the strip's profile, prepared) and grades r by the fit:

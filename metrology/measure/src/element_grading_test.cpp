@@ -335,7 +335,8 @@ TEST_CASE("the LSF shape on its bound: an ok element says m holds for the bounde
   REQUIRE(haloed.status == ElementStatus::ok);
   CAPTURE(haloed.note);
   CHECK(haloed.beta == doctest::Approx(1.0));
-  CHECK(haloed.note.find("the LSF shape stops on its bound (beta 1)") != std::string::npos);
+  CHECK(haloed.note.find("the LSF shape is held at its bound beta = 1 (the data favour beta below it") !=
+        std::string::npos);
   // A Gaussian LSF: beta inside its range, no such note.
   const ElementResult gaussian = graded(clipped_triplet(0.9, 1.5), 4.0);
   REQUIRE(gaussian.status == ElementStatus::ok);

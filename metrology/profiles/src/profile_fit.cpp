@@ -397,7 +397,9 @@ static void constrain(ceres::Problem& problem, double* x, const ProfileData& dat
 // (zero rows for the held ones) and J, r the weighted residuals' Jacobian
 // and values; beta's sigma as the fit reports it (scaled by chi^2).
 // `outward`: -1 on the lower bound, +1 on the upper; a step back into the
-// range leaves the bound by nothing.
+// range leaves the bound by nothing. The step lifts every bound at once (a
+// contrast at -1 or a shift at its range's edge moves with it): it says
+// where the data point, not a refit.
 static void set_unbounded_step(const ProfileCost& cost, const double* x, const double* cov, double scale,
                                int outward, ProfileFit& out) {
   const size_t n = static_cast<size_t>(cost.residual_count());
@@ -484,7 +486,8 @@ static ProfileFit fit_scaled(const ProfileData& data, const ProfileFitOptions& o
   double cov[kParamCount * kParamCount];
   covariance.GetCovarianceBlock(x, x, cov);
   const double scale = std::max(1.0, out.chi2_reduced);
-  if (options.fit_shape && (x[kBeta] <= options.beta_min || x[kBeta] >= options.beta_max))
+  if (options.fit_shape && options.beta_min < options.beta_max &&
+      (x[kBeta] <= options.beta_min || x[kBeta] >= options.beta_max))
     set_unbounded_step(*cost, x, cov, scale, x[kBeta] <= options.beta_min ? -1 : 1, out);
   out.var_log_nu0 = cov[kLogNu0 * kParamCount + kLogNu0] * scale;
   out.var_beta = options.fit_shape ? cov[kBeta * kParamCount + kBeta] * scale : 0.0;

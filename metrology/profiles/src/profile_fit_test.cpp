@@ -323,6 +323,8 @@ TEST_CASE("the shape's bound: a core with a halo presses beta onto 1, and the un
   CHECK(fit.beta == doctest::Approx(o.beta_min));
   CHECK(fit.beta_bound_sigmas > 4);  // 9.2 here
   CHECK(fit.unbounded_step_beta < 0);  // beyond the lower bound, not back into the range
+  // In beta's own sigma, as the fit reports it (widened by chi^2).
+  CHECK(fit.beta_bound_sigmas == doctest::Approx(-fit.unbounded_step_beta / std::sqrt(fit.var_beta)));
   CHECK(std::abs(fit.transfer_change_unbounded(f)) > 2 * fit.transfer_sigma(f));  // 0.047 against 0.012
   // The step points toward the halo's true transfer at f (0.321), which
   // the bounded family misses (0.275 here).
@@ -340,4 +342,33 @@ TEST_CASE("the shape's bound: a core with a halo presses beta onto 1, and the un
   CHECK(inside.beta < o.beta_max);
   CHECK(inside.beta_bound_sigmas == 0);
   CHECK(inside.transfer_change_unbounded(f) == 0);
+}
+
+TEST_CASE("the shape's bound from above: a box LSF presses beta onto a bound of 2 from below it") {
+  const Bars bars{0.07};
+  const double f = 1 / (2 * bars.w);
+  const double c = -0.8, a = 0.8 * bars.w;  // a box LSF 0.8 bar wide: flatter than any Gaussian
+  // Each bar's coverage blurred by the box: its overlap with [u - a/2, u + a/2], over a.
+  auto boxed = [&](double u) {
+    double v = 0;
+    for (int k = -1; k <= 1; ++k) {
+      const double lo = std::max(u - 0.5 * a, 2 * k * bars.w - 0.5 * bars.w);
+      const double hi = std::min(u + 0.5 * a, 2 * k * bars.w + 0.5 * bars.w);
+      v += std::max(0.0, hi - lo) / a;
+    }
+    return 200.0 * (1 + c * v);
+  };
+  std::mt19937_64 rng(9);
+  const ProfileData d = make_profile(bars, bars.w / 8, 10 * bars.w, 6 * bars.w, boxed, 0.05, &rng);
+  ProfileFitOptions o;
+  o.contrast = c;
+  o.beta_max = 2;
+  const ProfileFit fit = fit_profile(d, o);
+  REQUIRE(fit.usable);
+  CHECK(fit.beta == doctest::Approx(2.0));
+  CHECK(fit.unbounded_step_beta > 0);  // beyond the upper bound
+  CHECK(fit.beta_bound_sigmas > 4);
+  const double m_true = std::abs(std::sin(kPi * f * a) / (kPi * f * a));  // the box's transfer at f
+  const double m = fit.transfer(f);
+  CHECK(std::abs(m + fit.transfer_change_unbounded(f) - m_true) < std::abs(m - m_true));
 }
