@@ -60,48 +60,66 @@ void note_flat_gap(ElementResult& r, const SampledProfile& sp, const ProfileData
   r.note = r.note.empty() ? why : why + "; " + r.note;
 }
 
-// A clipped element whose fit cannot measure m (the clipping, or a
-// resampled photograph's halos, bend its profile beyond the model), yet
-// whose data show all three bars (profiles/gap_dips.h): m is read from the
-// shallower gap's dip, model-free. Near the limit only the bars'
-// fundamental is left, whose crest-to-trough is 4/pi m of the level step
-// |c| B, B the unclipped ground beside the triplet or the fit's B0 if
-// higher (the larger step, the lower m). The reading is approximate: the
-// windows' half-bar width reads it ~10 % low, a defocused triplet's
-// reversed third harmonic and the best of the shifted windows read it
-// high; kDipModelSigma covers that, as a type-B term. It is graded like a
-// fit's m (resolved or not by the criterion, so an unresolved one ends the
-// chain). Where the ground beside the triplet is all clipped (the step
-// unknown) or m comes out above 1 (a halo's overshoot, not the bars), the
-// element stays unmeasured (clipped), which the limit bridges. Printed
-// bars in chart photographs only. Returns whether it graded `r`.
+// m read model-free from a triplet whose gaps both dip over 5 sigma
+// (profiles/gap_dips.h): near the limit only the bars' fundamental is left,
+// whose crest-to-trough is 4/pi m of the level step |c| B, B the unclipped
+// ground beside the triplet or the fit's B0 if higher (the larger step, the
+// lower m), so m is pi/4 of the shallower dip over that step. The reading
+// is approximate: the windows' half-bar width reads it ~10 % low, a
+// defocused triplet's reversed third harmonic and the best of the shifted
+// windows read it high; kDipModelSigma covers that, as a type-B term.
+// None where the ground beside the triplet is all clipped (the step
+// unknown) or m comes out above 1 (a halo's overshoot, not the bars).
+// Printed bars in chart photographs only.
 constexpr double kDipModelSigma = 0.15;  // relative
-bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileData& d, const ProfileFit& fit,
-                     const ProfileFitOptions& fo, double contrast_sigma, const std::string& why) {
-  if (!fit.usable || fo.signature != Signature::albedo) return false;
+struct DipReading {
+  double m = 0, m_sigma = 0;
+  GapDips dips;
+};
+std::optional<DipReading> read_dips(const ElementResult& r, const SampledProfile& sp, const ProfileData& d,
+                                    const ProfileFit& fit, const ProfileFitOptions& fo, double contrast_sigma,
+                                    bool clearly = true) {
+  if (!fit.usable || fo.signature != Signature::albedo) return std::nullopt;
   const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast, pixel_mm(sp));
-  if (!g.three_bars()) return false;
+  const bool dip = clearly ? g.three_bars() : g.valid && g.dip[0] > 0 && g.dip[1] > 0;
+  if (!dip || !(g.ground > 0)) return std::nullopt;
   const int k = g.dip[0] < g.dip[1] ? 0 : 1;
   const double c = std::abs(rms_step_over_triplet(fo.contrast, fo.contrast_slope_per_mm, r.lp_per_mm));
-  if (!(g.ground > 0)) return false;
   const double step = c * std::max(fit.b0, g.ground);
-  if (!std::isfinite(step) || step <= 0) return false;
+  if (!std::isfinite(step) || step <= 0) return std::nullopt;
   const double m = std::numbers::pi / 4 * g.dip[k] / step;
   const double m_sigma =
       std::hypot(std::numbers::pi / 4 * g.sigma[k] / step, m * contrast_sigma / c, kDipModelSigma * m);
-  if (!std::isfinite(m) || !std::isfinite(m_sigma) || m > 1) return false;
-  r.m = m;
-  r.m_sigma = std::max(m_sigma, 1e-6);
+  if (!std::isfinite(m) || !std::isfinite(m_sigma) || m > 1) return std::nullopt;
+  return DipReading{m, std::max(m_sigma, 1e-6), g};
+}
+
+// A clipped element whose fit cannot measure m (the clipping, or a
+// resampled photograph's halos, bend its profile beyond the model), yet
+// whose data show all three bars: m is read from the dips (read_dips). It
+// is graded like a fit's m (resolved or not by the criterion, so an
+// unresolved one ends the chain). Where no dip reading can be taken, the
+// element stays unmeasured (clipped), which the limit bridges. Returns
+// whether it graded `r`.
+bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileData& d, const ProfileFit& fit,
+                     const ProfileFitOptions& fo, double contrast_sigma, const std::string& why) {
+  const std::optional<DipReading> dr = read_dips(r, sp, d, fit, fo, contrast_sigma);
+  if (!dr) return false;
+  r.m = dr->m;
+  r.m_sigma = dr->m_sigma;
+  r.dips_m = dr->m;
+  r.dips_m_sigma = dr->m_sigma;
   r.beta = 0;
   r.chi2_reduced = fit.chi2_reduced;
   r.m_from_dips = true;
   r.status = ElementStatus::ok;
   ProfileFit ground_fit = fit;  // the CNR's signal on the step's ground
-  ground_fit.b0 = step / c;
+  ground_fit.b0 = std::max(fit.b0, dr->dips.ground);
   set_signal(r, sp, ground_fit, fo);
   r.note = fmt::format("{}, but both gaps dip ({:.0f} and {:.0f} sigma): m is read model-free, pi/4 of the shallower "
                        "dip over the level step (+-{:.0f} % for that approximation)",
-                       why, g.dip[0] / g.sigma[0], g.dip[1] / g.sigma[1], 100 * kDipModelSigma);
+                       why, dr->dips.dip[0] / dr->dips.sigma[0], dr->dips.dip[1] / dr->dips.sigma[1],
+                       100 * kDipModelSigma);
   return true;
 }
 
@@ -252,8 +270,14 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
                            fit.chi2_reduced, model_mismatch ? "; the reference patch shows the same mismatch" : "");
     note_shape_bound(r, fit);
   }
-  if (read_gap_dips && r.status == ElementStatus::ok && fo.signature == Signature::albedo)
+  if (read_gap_dips && r.status == ElementStatus::ok && fo.signature == Signature::albedo) {
     note_flat_gap(r, sp, data, fo.contrast);
+    // The dips read model-free beside the fit's m, which they may show
+    // above zero where a poor fit's widened m_sigma cannot (criterion.h).
+    if (!r.m_from_dips)
+      if (const std::optional<DipReading> dr = read_dips(r, sp, data, fit, fo, contrast_sigma, false))
+        r.dips_m = dr->m, r.dips_m_sigma = dr->m_sigma;
+  }
   if (clipped && r.status == ElementStatus::ok)
     r.note = clipped_note(sp, ": fitted with those bins as bounds" + (r.note.empty() ? "" : "; " + r.note));
 }
@@ -314,10 +338,22 @@ bool is_unmeasured(const ElementResult& r, bool chart_photograph) {
 
 namespace {
 
+// The bars shown above zero by the model-free reading of their gaps: that
+// reading itself resolved by the criterion (ElementResult::dips_m).
+bool shown_by_dips(const ElementResult& r, const Criterion& criterion) {
+  return r.dips_m_sigma > 0 && is_resolved({r.group, r.element, r.lp_per_mm, r.dips_m, r.dips_m_sigma, true}, criterion);
+}
+
+// The element as the criterion sees it (its unmeasured flag apart).
+MPoint criterion_point(const ElementResult& r, const Criterion& criterion) {
+  MPoint p{r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, r.status == ElementStatus::ok && !r.gap_flat};
+  p.shown_by_dips = shown_by_dips(r, criterion);
+  return p;
+}
+
 // Fitted and resolved by the criterion: what ElementResult::resolved says.
 bool ok_and_resolved(const ElementResult& r, const Criterion& criterion) {
-  return r.status == ElementStatus::ok && !r.gap_flat &&
-         is_resolved({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, true}, criterion);
+  return is_resolved(criterion_point(r, criterion), criterion);
 }
 
 }  // namespace
@@ -409,10 +445,14 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
       // An element whose step alone leaves m unresolved says nothing about
       // the optics (the light hardly shades it there): bridged for the
       // optical limit. Its CNR, the bars' own signal, still counts.
-      const MPoint point{r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok, unmeasured};
+      MPoint point = criterion_point(r, criterion);
+      point.usable = ok;
       const bool unscaled = ok && r.m_scale_undetermined && !is_resolved(point, criterion);
-      m.push_back({r.group, r.element, r.lp_per_mm, r.m, r.m_sigma, ok && !unscaled && !r.gap_flat, unmeasured || unscaled});
-      cnr.push_back({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, ok, unmeasured, r.noise_shot_fraction});
+      point.usable = ok && !unscaled && !r.gap_flat;
+      point.unmeasured = unmeasured || unscaled;
+      m.push_back(point);
+      cnr.push_back({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, ok, unmeasured, r.noise_shot_fraction,
+                     point.shown_by_dips});
     }
     const LimitBreakdown parts = decide_breakdown(std::move(m), std::move(cnr), criterion, detectability);
     const bool h = o == BarOrientation::horizontal_bars;
@@ -421,15 +461,23 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
   }
   for (ElementResult& r : M.elements) {
     r.resolved = ok_and_resolved(r, criterion);
+    const bool by_dips = shown_by_dips(r, criterion);
     // Above the threshold yet not resolved: say why, or the status reads
-    // as a contradiction.
-    if (r.status == ElementStatus::ok && !r.resolved && std::isfinite(r.m) && r.m >= criterion.threshold &&
-        !r.gap_flat)
+    // as a contradiction. Resolved only by its dips: say so.
+    const bool above = r.status == ElementStatus::ok && std::isfinite(r.m) && r.m >= criterion.threshold && !r.gap_flat;
+    const bool fit_significant = r.m - criterion.significance_z * r.m_sigma > 0;
+    if (above && !r.resolved)
       r.note += fmt::format("{}m {:.3f} is above the threshold {:g} but not {:g} sigma above 0 (m_sigma {:.3f}): "
                             "not resolved",
                             r.note.empty() ? "" : "; ", r.m, criterion.threshold, criterion.significance_z, r.m_sigma);
-    r.detectable = r.status == ElementStatus::ok &&
-                   is_detectable({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, true}, detectability);
+    else if (above && by_dips && !fit_significant)
+      r.note += fmt::format("{}m {:.3f} is not {:g} sigma above 0 by the fit (m_sigma {:.3f}), but read model-free from "
+                            "its gaps' dips, m {:.3f} +- {:.3f}, it is: resolved",
+                            r.note.empty() ? "" : "; ", r.m, criterion.significance_z, r.m_sigma, r.dips_m,
+                            r.dips_m_sigma);
+    CnrPoint c{r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, r.status == ElementStatus::ok};
+    c.shown_by_dips = by_dips;
+    r.detectable = r.status == ElementStatus::ok && is_detectable(c, detectability);
   }
 }
 

@@ -288,6 +288,60 @@ TEST_CASE("a flat gap: an ok element whose triplet shows two bars is never resol
   CHECK(plain.vertical_parts.optical.element == 5);
 }
 
+TEST_CASE("shown by its dips: a poorly fitting element whose gaps read m significantly is resolved") {
+  Criterion c;
+  DetectabilityCriterion rose;
+  // E4's fit reads m 0.16 +- 0.10 (a poor fit's widened sigma), not 2 sigma
+  // above zero; its dips read m 0.13 +- 0.04 model-free.
+  const auto row = [](double dips_m, double dips_m_sigma) {
+    Measurement M = row_of({0.8, 0.6, 0.5, 0.16, 0.05, 0.02});
+    for (ElementResult& e : M.elements) e.cnr = 50 * e.m, e.cnr_sigma = 50 * e.m_sigma;
+    ElementResult& e4 = M.elements[3];
+    e4.m_sigma = 0.10;
+    e4.cnr_sigma = 50 * e4.m_sigma;
+    e4.dips_m = dips_m;
+    e4.dips_m_sigma = dips_m_sigma;
+    return M;
+  };
+  Measurement M = row(0.13, 0.04);
+  decide_limits(M, c, rose, true);
+  const ElementResult& e4 = M.elements[3];
+  INFO(e4.note);
+  CHECK(e4.resolved);
+  CHECK(e4.detectable);  // CNR 8 >= k 5, its presence shown by the dips
+  CHECK(e4.note.find("read model-free from its gaps' dips, m 0.130 +- 0.040, it is: resolved") != std::string::npos);
+  CHECK(M.vertical_parts.optical.element == 4);
+  CHECK(M.vertical_parts.detectability.element == 4);
+  // The dips' own m below the threshold, or not 2 sigma above zero: the
+  // fit's sigma decides, and E4 ends the chain at E3.
+  for (const auto& [dm, ds] : {std::pair{0.08, 0.02}, std::pair{0.13, 0.07}, std::pair{0.13, 0.0}}) {
+    Measurement N = row(dm, ds);
+    decide_limits(N, c, rose, true);
+    CAPTURE(dm);
+    CAPTURE(ds);
+    CHECK_FALSE(N.elements[3].resolved);
+    CHECK(N.elements[3].note.find("not 2 sigma above 0") != std::string::npos);
+    CHECK(N.vertical_parts.optical.element == 3);
+  }
+}
+
+TEST_CASE("shown by its dips: a chart photograph's ok element carries its dips' model-free m, a layout's none") {
+  // A sharp, unclipped triplet (blur 1.5 px at 4 px per bar): the fit's m
+  // and the dips' agree within the dip reading's approximation.
+  const SampledProfile sp = clipped_triplet(0.9, 1.5);
+  REQUIRE(sp.pixels_clipped == 0);
+  const ElementResult chart = graded(sp, 4.0, true);
+  REQUIRE(chart.status == ElementStatus::ok);
+  CHECK_FALSE(chart.m_from_dips);
+  REQUIRE(chart.dips_m_sigma > 0);
+  CHECK(chart.dips_m == doctest::Approx(chart.m).epsilon(0.25));
+  CHECK(chart.dips_m_sigma >= 0.15 * chart.dips_m);  // the type-B term
+  const ElementResult layout = graded(sp, 4.0);
+  REQUIRE(layout.status == ElementStatus::ok);
+  CHECK(layout.dips_m_sigma == 0);
+  CHECK(layout.m == doctest::Approx(chart.m));
+}
+
 TEST_CASE("elements not found: a chart photograph's chain lists the ones it passes, a layout has none missing") {
   Criterion c;
   // G2E3 and G2E4 were never found (cut off): only E1, E2, E5, E6 measured.

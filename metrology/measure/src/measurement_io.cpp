@@ -115,6 +115,8 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
                    {"m", ok ? finite(e.m) : nlohmann::json()},
                    {"m_sigma", ok ? finite(e.m_sigma) : nlohmann::json()},
                    {"m_source", ok ? nlohmann::json(e.m_from_dips ? "gap_dips" : "fit") : nlohmann::json()},
+                   {"m_dips", ok && e.dips_m_sigma > 0 ? finite(e.dips_m) : nlohmann::json()},
+                   {"m_dips_sigma", ok && e.dips_m_sigma > 0 ? finite(e.dips_m_sigma) : nlohmann::json()},
                    {"psf_shape_beta", ok && !e.m_from_dips ? finite(e.beta) : nlohmann::json()},
                    {"chi2_reduced", e.chi2_reduced > 0 ? finite(e.chi2_reduced) : nlohmann::json()},
                    {"status", to_string(e.status)},

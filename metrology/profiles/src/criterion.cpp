@@ -19,7 +19,7 @@ void Criterion::validate() const {
 
 bool is_resolved(const MPoint& p, const Criterion& c) {
   return p.usable && std::isfinite(p.m) && p.m >= c.threshold &&
-         p.m - c.significance_z * p.m_sigma > 0;
+         (p.m - c.significance_z * p.m_sigma > 0 || p.shown_by_dips);
 }
 
 namespace {

@@ -47,6 +47,19 @@ TEST_CASE("uncertainty propagates from m_sigma and the significance rule bites")
   CHECK_FALSE(cut.interpolated_lp_per_mm);  // the next one is not a clean crossing
 }
 
+TEST_CASE("bars shown by their gaps stand for the significance, never for the threshold") {
+  Criterion c;
+  MPoint p{2, 1, 4.0, 0.16, 0.10};  // 1.6 sigma: not significant by m_sigma
+  CHECK_FALSE(is_resolved(p, c));
+  p.shown_by_dips = true;
+  CHECK(is_resolved(p, c));
+  p.m = 0.09;  // below the threshold: the dips do not lift m
+  CHECK_FALSE(is_resolved(p, c));
+  p.m = 0.16;
+  p.usable = false;  // a graded element stays unresolved
+  CHECK_FALSE(is_resolved(p, c));
+}
+
 TEST_CASE("unusable elements are never resolved, all-resolved is flagged") {
   std::vector<MPoint> pts = gaussian_series(0.001, 0.0);
   CHECK(find_limit(pts, {}).beyond_finest);

@@ -47,7 +47,8 @@ double rose_cnr(double signal_ptp, double pixels, double noise_sd) {
 }
 
 bool is_detectable(const CnrPoint& p, const DetectabilityCriterion& c) {
-  return p.usable && std::isfinite(p.cnr) && p.cnr >= c.k && p.cnr - c.significance_z * p.cnr_sigma > 0;
+  return p.usable && std::isfinite(p.cnr) && p.cnr >= c.k &&
+         (p.cnr - c.significance_z * p.cnr_sigma > 0 || p.shown_by_dips);
 }
 
 Limit find_detectability_limit(const std::vector<CnrPoint>& points, const DetectabilityCriterion& c) {
@@ -59,6 +60,7 @@ Limit find_detectability_limit(const std::vector<CnrPoint>& points, const Detect
   for (const CnrPoint& p : points) {
     MPoint m{p.group, p.element, p.lp_per_mm, p.cnr / (2 * c.k), p.cnr_sigma / (2 * c.k), p.usable};
     m.unmeasured = p.unmeasured;
+    m.shown_by_dips = p.shown_by_dips;
     q.push_back(m);
   }
   return find_limit(q, Criterion{0.5, c.significance_z});

@@ -82,6 +82,11 @@ TEST_CASE("an undetectable element ends the chain, an unmeasured one is bridged"
   // CNR above k but not significantly above zero: not detectable.
   pts = {{0, 1, 1.0, 6, 4}};
   CHECK_FALSE(find_detectability_limit(pts, {}).any_resolved);
+  // Unless the bars' gaps show them (chart photographs); below k still not.
+  pts[0].shown_by_dips = true;
+  CHECK(find_detectability_limit(pts, {}).any_resolved);
+  pts[0].cnr = 4;
+  CHECK_FALSE(find_detectability_limit(pts, {}).any_resolved);
 }
 
 TEST_CASE("the reported limit is the coarser one and says which") {

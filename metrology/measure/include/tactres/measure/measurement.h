@@ -101,6 +101,12 @@ struct ElementResult {
   // and the model cannot measure its bars, yet all three show
   // (element_grading.h).
   bool m_from_dips = false;
+  // ok, on a chart photograph of printed bars whose gaps both dip: m read
+  // model-free from the shallower dip (element_grading.h), beside the fit's
+  // m; dips_m_sigma 0 where none was read. Where that reading is itself
+  // resolved, the bars count as significantly above zero (criterion.h,
+  // MPoint::shown_by_dips) even when a poor fit widens m_sigma past it.
+  double dips_m = 0, dips_m_sigma = 0;
   bool resolved = false;
   bool detectable = false;
   std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say

@@ -4,7 +4,10 @@
 //
 // An element is resolved when m(f) >= threshold and m(f) is significantly
 // above zero: m - z * m_sigma > 0. (Chart mode adds that both gaps of a
-// photographed triplet dip, gap_dips.h; it has no truth file to match.) The discrete limit of an orientation is
+// photographed triplet dip, gap_dips.h, and lets a model-free reading of
+// those dips show the bars above zero where a poorly fitting model's
+// widened m_sigma cannot: MPoint::shown_by_dips; it has no truth file to
+// match.) The discrete limit of an orientation is
 // the finest element such that it and every coarser element are resolved.
 // An element that was not measured (its fit failed, it is clipped, damaged,
 // or out of a chart photograph's view) says nothing either way: the chain
@@ -39,6 +42,11 @@ struct MPoint {
   double m_sigma = 0.0;   // 0 for exact truth
   bool usable = true;     // false: graded status other than ok (never resolved)
   bool unmeasured = false;  // not measured at all: skipped by the chain (implies !usable)
+  // Chart photographs only: the bars stand significantly above zero by a
+  // model-free reading of the triplet's gaps (m read from them is itself
+  // resolved by the criterion), whatever m_sigma says; m >= threshold is
+  // still required of m. Never set for a truth file.
+  bool shown_by_dips = false;
 };
 
 struct Limit {

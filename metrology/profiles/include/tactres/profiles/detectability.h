@@ -80,6 +80,7 @@ struct CnrPoint {
   bool usable = true;             // false: graded status other than ok (never detectable)
   bool unmeasured = false;        // skipped by the chain (implies !usable)
   double shot_fraction = 1.0;     // share of the noise variance that scales with the light (shot noise)
+  bool shown_by_dips = false;     // the bars shown above zero by their gaps (MPoint::shown_by_dips)
 };
 
 bool is_detectable(const CnrPoint& p, const DetectabilityCriterion& c);
