@@ -279,7 +279,8 @@ std::string curves_section(const Comparison& c) {
   s += "</div>\n";
   s += fmt::format(
       "<p class=\"note\">Each press's elements with status ok: m ± 1σ as measured. An element is resolved when m "
-      "&ge; {} (red line) and m &minus; {}σ &gt; 0. Repeated presses of a design share its colour; the raw CMOS "
+      "&ge; {} (red line) and m &minus; {}σ &gt; 0 (on a chart photograph its gaps' model-free dips may show the "
+      "latter instead). Repeated presses of a design share its colour; the raw CMOS "
       "curve is black and dashed.",
       c.threshold, c.significance_z);
   if (cnr)

@@ -86,6 +86,7 @@ void grade_beyond_fibre_sampling(const ChartDetection& D, Measurement& M) {
     if (e.status == ElementStatus::ok && e.px_per_bar < pitch_px) {
       e.status = ElementStatus::aliased;
       e.m = e.m_sigma = 0;
+      e.dips_m = e.dips_m_sigma = 0;
       e.note = fmt::format("{:.2f} px per bar is finer than the fibre bundle's rows of cores ({:.2f} px apart), "
                            "which sample the chart: beyond the bundle's Nyquist limit",
                            e.px_per_bar, pitch_px);

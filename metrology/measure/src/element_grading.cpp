@@ -340,8 +340,9 @@ namespace {
 
 // The bars shown above zero by the model-free reading of their gaps: that
 // reading itself resolved by the criterion (ElementResult::dips_m).
+// Never for a triplet with a flat gap (two bars seen, not three).
 bool shown_by_dips(const ElementResult& r, const Criterion& criterion) {
-  return r.dips_m_sigma > 0 && is_resolved({r.group, r.element, r.lp_per_mm, r.dips_m, r.dips_m_sigma, true}, criterion);
+  return r.dips_m_sigma > 0 && !r.gap_flat && is_resolved({r.group, r.element, r.lp_per_mm, r.dips_m, r.dips_m_sigma, true}, criterion);
 }
 
 // The element as the criterion sees it (its unmeasured flag apart).

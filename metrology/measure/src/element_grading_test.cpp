@@ -325,21 +325,52 @@ TEST_CASE("shown by its dips: a poorly fitting element whose gaps read m signifi
   }
 }
 
-TEST_CASE("shown by its dips: a chart photograph's ok element carries its dips' model-free m, a layout's none") {
-  // A sharp, unclipped triplet (blur 1.5 px at 4 px per bar): the fit's m
-  // and the dips' agree within the dip reading's approximation.
-  const SampledProfile sp = clipped_triplet(0.9, 1.5);
-  REQUIRE(sp.pixels_clipped == 0);
-  const ElementResult chart = graded(sp, 4.0, true);
-  REQUIRE(chart.status == ElementStatus::ok);
-  CHECK_FALSE(chart.m_from_dips);
-  REQUIRE(chart.dips_m_sigma > 0);
-  CHECK(chart.dips_m == doctest::Approx(chart.m).epsilon(0.25));
-  CHECK(chart.dips_m_sigma >= 0.15 * chart.dips_m);  // the type-B term
-  const ElementResult layout = graded(sp, 4.0);
-  REQUIRE(layout.status == ElementStatus::ok);
+TEST_CASE("shown by its dips: a triplet the model misses is resolved by its gaps, in chart mode only") {
+  // Bars of unequal depth (15 % deeper per bar, left to right), blurred by
+  // 0.75 px at 1.65 px per bar (16.5 px/mm), with noise 0.01 on a ground
+  // of 0.6: the model, one depth and a smooth LSF, misses the profile
+  // (reduced chi^2 over 100), the poor fit widens m_sigma past m / 2, and
+  // the gaps still dip.
+  constexpr double kPxPerMm = 16.5;
+  cv::Mat ink = triplet_ink(1.0, kPxPerMm);
+  cv::GaussianBlur(ink, ink, {0, 0}, 0.75);
+  cv::Mat lum(ink.size(), CV_32F);
+  const double bar_pitch_px = 2 * kBarMm * kPxPerMm;
+  for (int y = 0; y < lum.rows; ++y)
+    for (int x = 0; x < lum.cols; ++x)
+      lum.at<float>(y, x) =
+          static_cast<float>(0.6 * (1 - 0.8 * (1 + 0.15 * (x - 100) / bar_pitch_px) * ink.at<float>(y, x)));
+  cv::Mat noise(lum.size(), CV_32F);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 0.01);
+  lum += noise;
+  const SampledProfile unequal = triplet_profile(lum, kPxPerMm);
+  REQUIRE(unequal.pixels_clipped == 0);
+  const ElementResult r = graded(unequal, 0.1 * kPxPerMm, true);
+  INFO(r.note);
+  CAPTURE(r.m);
+  CAPTURE(r.m_sigma);
+  CAPTURE(r.chi2_reduced);
+  CAPTURE(r.dips_m);
+  CAPTURE(r.dips_m_sigma);
+  REQUIRE(r.status == ElementStatus::ok);
+  CHECK(r.chi2_reduced > 5);  // the model misses the profile
+  REQUIRE(r.m >= 0.1);
+  REQUIRE(r.m - 2 * r.m_sigma <= 0);  // the fit alone would not resolve it
+  REQUIRE(r.dips_m_sigma > 0);
+  CHECK(r.dips_m - 2 * r.dips_m_sigma > 0);
+  Measurement M;
+  M.elements.push_back(r);
+  decide_limits(M, Criterion{}, {}, true);
+  CHECK(M.elements[0].resolved);
+  CHECK(M.elements[0].note.find("read model-free from its gaps' dips") != std::string::npos);
+  // Layout mode reads no dips: the fit's sigma decides, and it does not resolve.
+  const ElementResult layout = graded(unequal, 0.1 * kPxPerMm);
   CHECK(layout.dips_m_sigma == 0);
-  CHECK(layout.m == doctest::Approx(chart.m));
+  Measurement L;
+  L.elements.push_back(layout);
+  decide_limits(L, Criterion{}, {}, false);
+  CHECK_FALSE(L.elements[0].resolved);
 }
 
 TEST_CASE("elements not found: a chart photograph's chain lists the ones it passes, a layout has none missing") {

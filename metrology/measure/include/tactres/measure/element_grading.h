@@ -52,8 +52,12 @@
 //   fit with its clipped bins as bounds cannot measure m is ok when both
 //   its gaps dip over 5 sigma and the ground beside it is not all clipped:
 //   m is then pi/4 of the shallower dip over the level step, model-free,
-//   with a 15 % type-B term in m_sigma, and r.m_from_dips is set.
-//   Layout mode keeps the criterion the truth file uses.
+//   with a 15 % type-B term in m_sigma, and r.m_from_dips is set. Every
+//   other ok element whose gaps both dip gets the same model-free reading
+//   in r.dips_m / r.dips_m_sigma (0 = none; equal to m when m_from_dips),
+//   which decide_limits lets show the bars above zero (criterion.h,
+//   MPoint::shown_by_dips). Layout mode keeps the criterion the truth file
+//   uses: dips_m_sigma stays 0 there.
 // - Returns the seconds spent fitting (0 when no fit ran). Never throws for
 //   a bad profile: every failure is a status.
 
