@@ -114,13 +114,19 @@ void check_exit_codes_and_json() {
       const Run& r = measure(file);
       CHECK((r.exit_code == 0 || r.exit_code == 1 || r.exit_code == 2));
       CHECK(r.j.has_value());
-      // Every graded element says why.
+      // Every graded element says why. An ok one's model-free dip reading
+      // is m itself where m came from the dips, and none is kept for any
+      // other status.
       if (r.j && r.j->contains("elements"))
-        for (const json& e : (*r.j)["elements"])
+        for (const json& e : (*r.j)["elements"]) {
+          CAPTURE(e.dump());
           if (e["status"] != "ok") {
-            CAPTURE(e.dump());
             CHECK((e["note"].is_string() && !e["note"].get<std::string>().empty()));
+            CHECK(e["m_dips"].is_null());
+          } else if (e["m_source"] == "gap_dips") {
+            CHECK(e["m_dips"] == e["m"]);
           }
+        }
       // Every element placed but not found is listed, and is measured.
       if (!r.j || !r.j->contains("chart") || !(*r.j)["chart"].value("found", false)) continue;
       const json& chart = (*r.j)["chart"];
