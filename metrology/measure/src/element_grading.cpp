@@ -47,8 +47,13 @@ std::string clipped_note(const SampledProfile& sp, const std::string& rest = "")
 // Marks an ok element whose triplet shows one gap flat (profiles/gap_dips.h)
 // on the profile it was graded on. Printed bars only: a relief's shading
 // signature is a slope, with no dips to read.
-void note_flat_gap(ElementResult& r, const SampledProfile& sp, const ProfileData& d, double contrast) {
-  const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, contrast, pixel_mm(sp));
+// The dips of r's triplet in the profile `d` sampled as `sp`
+// (profiles/gap_dips.h), `contrast` the model's level step.
+GapDips triplet_dips(const ElementResult& r, const SampledProfile& sp, const ProfileData& d, double contrast) {
+  return gap_dips(d, 0.5 / r.lp_per_mm, contrast, pixel_mm(sp));
+}
+
+void note_flat_gap(ElementResult& r, const GapDips& g) {
   const std::optional<int> flat = g.flat_gap();
   if (!flat) return;
   r.gap_flat = true;
@@ -76,11 +81,11 @@ struct DipReading {
   double m = 0, m_sigma = 0;
   GapDips dips;
 };
-std::optional<DipReading> read_dips(const ElementResult& r, const SampledProfile& sp, const ProfileData& d,
-                                    const ProfileFit& fit, const ProfileFitOptions& fo, double contrast_sigma,
-                                    bool clearly = true) {
+// `g`: the triplet's dips (triplet_dips); `clearly`: both over 5 sigma
+// (GapDips::three_bars), else both above zero.
+std::optional<DipReading> read_dips(const ElementResult& r, const GapDips& g, const ProfileFit& fit,
+                                    const ProfileFitOptions& fo, double contrast_sigma, bool clearly = true) {
   if (!fit.usable || fo.signature != Signature::albedo) return std::nullopt;
-  const GapDips g = gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast, pixel_mm(sp));
   const bool dip = clearly ? g.three_bars() : g.valid && g.dip[0] > 0 && g.dip[1] > 0;
   if (!dip || !(g.ground > 0)) return std::nullopt;
   const int k = g.dip[0] < g.dip[1] ? 0 : 1;
@@ -103,7 +108,7 @@ std::optional<DipReading> read_dips(const ElementResult& r, const SampledProfile
 // whether it graded `r`.
 bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileData& d, const ProfileFit& fit,
                      const ProfileFitOptions& fo, double contrast_sigma, const std::string& why) {
-  const std::optional<DipReading> dr = read_dips(r, sp, d, fit, fo, contrast_sigma);
+  const std::optional<DipReading> dr = read_dips(r, triplet_dips(r, sp, d, fo.contrast), fit, fo, contrast_sigma);
   if (!dr) return false;
   r.m = dr->m;
   r.m_sigma = dr->m_sigma;
@@ -133,7 +138,7 @@ bool grade_from_dips(ElementResult& r, const SampledProfile& sp, const ProfileDa
 bool keep_under_floor_if_seen(ElementResult& r, const SampledProfile& sp, const ProfileData& d,
                               const ProfileFitOptions& fo, double min_px_per_bar) {
   const bool checked = r.status == ElementStatus::ok && fo.signature == Signature::albedo;
-  const GapDips g = checked ? gap_dips(d, 0.5 / r.lp_per_mm, fo.contrast, pixel_mm(sp)) : GapDips{};
+  const GapDips g = checked ? triplet_dips(r, sp, d, fo.contrast) : GapDips{};
   const std::string floor = fmt::format("{:.2f} px per bar, under the {:.2f} floor", r.px_per_bar, min_px_per_bar);
   if (g.three_bars()) {
     r.note = fmt::format("{}: kept because its data show all three bars{}", floor, r.note.empty() ? "" : "; " + r.note);
@@ -271,11 +276,12 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     note_shape_bound(r, fit);
   }
   if (read_gap_dips && r.status == ElementStatus::ok && fo.signature == Signature::albedo) {
-    note_flat_gap(r, sp, data, fo.contrast);
+    const GapDips g = triplet_dips(r, sp, data, fo.contrast);
+    note_flat_gap(r, g);
     // The dips read model-free beside the fit's m, which they may show
     // above zero where a poor fit's widened m_sigma cannot (criterion.h).
     if (!r.m_from_dips)
-      if (const std::optional<DipReading> dr = read_dips(r, sp, data, fit, fo, contrast_sigma, false))
+      if (const std::optional<DipReading> dr = read_dips(r, g, fit, fo, contrast_sigma, false))
         r.dips_m = dr->m, r.dips_m_sigma = dr->m_sigma;
   }
   if (clipped && r.status == ElementStatus::ok)
@@ -342,7 +348,8 @@ namespace {
 // reading itself resolved by the criterion (ElementResult::dips_m).
 // Never for a triplet with a flat gap (two bars seen, not three).
 bool shown_by_dips(const ElementResult& r, const Criterion& criterion) {
-  return r.dips_m_sigma > 0 && !r.gap_flat && is_resolved({r.group, r.element, r.lp_per_mm, r.dips_m, r.dips_m_sigma, true}, criterion);
+  return r.dips_m_sigma > 0 && !r.gap_flat &&
+         is_resolved({r.group, r.element, r.lp_per_mm, r.dips_m, r.dips_m_sigma, true}, criterion);
 }
 
 // The element as the criterion sees it (its unmeasured flag apart).
@@ -446,10 +453,11 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
       // An element whose step alone leaves m unresolved says nothing about
       // the optics (the light hardly shades it there): bridged for the
       // optical limit. Its CNR, the bars' own signal, still counts.
-      MPoint point = criterion_point(r, criterion);
-      point.usable = ok;
-      const bool unscaled = ok && r.m_scale_undetermined && !is_resolved(point, criterion);
-      point.usable = ok && !unscaled && !r.gap_flat;
+      MPoint point = criterion_point(r, criterion);  // usable: ok, no flat gap
+      MPoint fitted = point;                         // the flat gap aside
+      fitted.usable = ok;
+      const bool unscaled = ok && r.m_scale_undetermined && !is_resolved(fitted, criterion);
+      point.usable = point.usable && !unscaled;
       point.unmeasured = unmeasured || unscaled;
       m.push_back(point);
       cnr.push_back({r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, ok, unmeasured, r.noise_shot_fraction,
@@ -478,7 +486,7 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
                             r.dips_m_sigma);
     CnrPoint c{r.group, r.element, r.lp_per_mm, r.cnr, r.cnr_sigma, r.status == ElementStatus::ok};
     c.shown_by_dips = by_dips;
-    r.detectable = r.status == ElementStatus::ok && is_detectable(c, detectability);
+    r.detectable = is_detectable(c, detectability);
   }
 }
 

@@ -7,8 +7,8 @@
 // photographed triplet dip, gap_dips.h, and lets a model-free reading of
 // those dips show the bars above zero where a poorly fitting model's
 // widened m_sigma cannot: MPoint::shown_by_dips; it has no truth file to
-// match.) The discrete limit of an orientation is
-// the finest element such that it and every coarser element are resolved.
+// match.) The discrete limit of an orientation is the finest element such
+// that it and every coarser element are resolved.
 // An element that was not measured (its fit failed, it is clipped, damaged,
 // or out of a chart photograph's view) says nothing either way: the chain
 // skips it, and continues across it when the measured elements on both

@@ -27,8 +27,8 @@
 // The detectability limit of an orientation is the finest element such that
 // it and every coarser element are detectable (CNR >= k, and CNR above zero
 // by z standard errors, or, on a chart photograph, the bars shown above
-// zero by their gaps' dips: CnrPoint::shown_by_dips), with the same chain rules as the optical limit
-// (unmeasured elements are bridged). Its interpolated value is where CNR
+// zero by their gaps' dips: CnrPoint::shown_by_dips), with the same chain
+// rules as the optical limit (unmeasured elements are bridged). Its interpolated value is where CNR
 // crosses k, ln CNR linear in f^2 between the last detectable element and
 // the next (exact for a Gaussian MTF up to the slowly varying sqrt(N) ~ 1/f,
 // whose curvature moves the crossing by < 0.1 % over an element step).
