@@ -394,3 +394,72 @@ TEST_CASE("partial elements: a lone pattern must run along the chart's axes (a b
     }
   }
 }
+
+TEST_CASE("partial elements: a lone pattern where the missing partner stands completes the element") {
+  // Element 9's V triplet alone, and an H triplet near where its partner
+  // stands, `h_scale` times the period the partner should have (a field's
+  // distortion squeezes it), `off` periods from the place, its bars turned
+  // `turn_deg` from chart x.
+  struct Case {
+    double h_scale, off, turn_deg;
+    bool recognised, joins;
+  };
+  for (const Case c : {Case{0.85, 0.2, 0, false, true}, Case{1.2, 0.3, 5, false, true}, Case{0.7, 0.2, 0, false, false},
+                       Case{0.85, 0.8, 0, false, false}, Case{0.85, 0.2, 20, false, false},
+                       Case{0.85, 0.2, 0, true, true}, Case{0.7, 0.2, 0, true, false}}) {
+    CAPTURE(c.h_scale);
+    CAPTURE(c.off);
+    CAPTURE(c.turn_deg);
+    CAPTURE(c.recognised);
+    Built b = build(range(0, 8), View{});
+    Built nine = build({9}, View{});
+    BarPattern pv = nine.D.patterns[nine.D.elements[0].v];
+    const int kv = static_cast<int>(b.D.patterns.size());
+    b.D.patterns.push_back(pv);
+    if (c.recognised) b.D.arrangement.recognised = true;  // phase 0, upright, the maker's style
+    // Unrecognised, the side is the nearest complete element's.
+    const ChartElement* near = &b.D.elements[0];
+    for (const ChartElement& e : b.D.elements)
+      if (norm(b.D.patterns[e.h].center_px - pv.center_px) < norm(b.D.patterns[near->h].center_px - pv.center_px))
+        near = &e;
+    const Vec2 d = b.D.patterns[near->v].center_px - b.D.patterns[near->h].center_px;
+    const Vec2 h_to_v =
+        c.recognised ? double(h_side(9, false)) * chart_x_px(b.D.arrangement) : (1.0 / norm(d)) * d;
+    BarPattern ph = pv;
+    const double a = c.turn_deg * M_PI / 180;
+    ph.bar_dir = {std::cos(a), std::sin(a)};
+    ph.period_px = c.h_scale * pv.period_px;
+    ph.center_px = pv.center_px - (b.D.separation_periods * pv.period_px) * h_to_v + Vec2{0, c.off * pv.period_px};
+    const int kh = kv + 1;
+    b.D.patterns.push_back(ph);
+    const cv::Mat img(1200, 1200, CV_32F, cv::Scalar(0));
+    const std::vector<int> lone{kv, kh};
+    std::vector<ChartElement> partial = partial_elements(b.D, lone, b.field, img);
+    // At 0.7 the H triplet indexes a partial element of its own (12).
+    REQUIRE(partial.size() == (c.h_scale == 0.7 ? 2u : 1u));
+    REQUIRE(partial[0].v == kv);
+    REQUIRE(partial[0].relative_index == 9);
+    number_partial_elements(b.D, partial, lone, 1200, 1200);
+    const auto nine_it = std::find_if(b.D.elements.begin(), b.D.elements.end(),
+                                      [](const ChartElement& e) { return e.relative_index == 9; });
+    if (c.joins) {
+      REQUIRE(nine_it != b.D.elements.end());
+      CHECK(nine_it->h == kh);
+      CHECK(nine_it->v == kv);
+      CHECK(nine_it->partner_joined);
+      CHECK(index_from_one_pattern(b.D, *nine_it));
+      CHECK(b.D.partners_placed == 0);
+      CHECK(b.D.partial.empty());
+    } else if (c.recognised) {  // placed as predicted, not joined
+      REQUIRE(nine_it != b.D.elements.end());
+      CHECK_FALSE(nine_it->partner_joined);
+      CHECK(b.D.patterns[nine_it->h].predicted);
+      CHECK(b.D.partners_placed == static_cast<int>(partial.size()));  // each partial element's
+    } else {
+      CHECK(nine_it == b.D.elements.end());
+      REQUIRE(b.D.partial.size() == partial.size());
+      CHECK(b.D.partial[0].h < 0);
+      CHECK(b.D.partial[0].partial == ChartElement::Partial::partner_not_found);
+    }
+  }
+}

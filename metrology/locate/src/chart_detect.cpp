@@ -578,7 +578,7 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   // field's distorted corner to its centre (dev_04/05's G6E6).
   predict_column_ends(D);
   if (nesting_centre_px) predict_nested_pairs(D, *nesting_centre_px, img.cols, img.rows);
-  number_partial_elements(D, std::move(partial), img.cols, img.rows);
+  number_partial_elements(D, std::move(partial), pairing.lone, img.cols, img.rows);
   D.found = true;
   return D;
 }

@@ -246,8 +246,11 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
 // Numbers them by the anchor into D.partial, those an element (found or
 // predicted) holds the index of dropped. With the arrangement recognised
 // the partner's side is the maker's, and a partner in view is placed and
-// its element joins D.elements (ChartDetection::partners_placed).
-void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partial, int cols, int rows);
+// its element joins D.elements (ChartDetection::partners_placed). A lone
+// pattern (of `lone`) found where a missing partner stands completes its
+// element instead (ChartElement::partner_joined).
+void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partial, const std::vector<int>& lone,
+                             int cols, int rows);
 
 // The image without texture finer than a printed stroke (a fibre bundle's
 // honeycomb), for reading the numbers when they cannot be read in the

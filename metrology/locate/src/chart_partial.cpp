@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,51 @@ Vec2 place_partner(const ChartDetection& D, ChartElement& e, Vec2 h_to_v, int co
                                  outside ? "lies outside the image (the element is partly out of view)"
                                          : "is in the image but was not found there");
   return partner;
+}
+
+// The image direction from an H triplet to its V partner at the complete
+// element found nearest to `at_px` (unit); none without one.
+std::optional<Vec2> nearest_h_to_v(const ChartDetection& D, Vec2 at_px) {
+  const ChartElement* near = nullptr;
+  double near_d = 1e300;
+  for (const ChartElement& e : D.elements) {
+    if (e.h < 0 || e.v < 0 || D.patterns[e.h].predicted || D.patterns[e.v].predicted) continue;
+    const double d = norm(D.patterns[e.h].center_px - at_px);
+    if (d < near_d) near_d = d, near = &e;
+  }
+  if (!near) return std::nullopt;
+  const Vec2 d = D.patterns[near->v].center_px - D.patterns[near->h].center_px;
+  return (1.0 / norm(d)) * d;
+}
+
+// A lone pattern found where partial element e's missing partner stands
+// (`partner_px`): bars within kLoneAxisTolerance of a quarter turn from the
+// found pattern's, its centre within kJoinReachPeriods of the place, and a
+// period within kJoinPeriodLn (natural log) of the partner's predicted
+// one; the nearest such, not a pattern of any element; -1 if none. The
+// pairing's own period tolerance is tighter: near a lit disc's rim
+// (dev_12) a field's distortion squeezes one of an element's two patterns
+// by 15 %, and the pair is not made, though each was found.
+constexpr double kJoinReachPeriods = 0.5, kJoinPeriodLn = 0.3;
+int lone_partner(const ChartDetection& D, const ChartElement& e, Vec2 partner_px, const std::vector<int>& lone,
+                 const std::vector<ChartElement>& partial) {
+  const BarPattern& p = D.patterns[e.h >= 0 ? e.h : e.v];
+  const double expected_period_px = (e.h >= 0 ? 1 / D.hv_period_ratio : D.hv_period_ratio) * p.period_px;
+  const auto used = [&](int k) {
+    const auto holds = [k](const ChartElement& x) { return x.h == k || x.v == k; };
+    return std::any_of(D.elements.begin(), D.elements.end(), holds) ||
+           std::any_of(partial.begin(), partial.end(), holds);
+  };
+  int best = -1;
+  double best_d = kJoinReachPeriods * p.period_px;
+  for (int k : lone) {
+    const BarPattern& q = D.patterns[k];
+    if (q.predicted || std::abs(dot(q.bar_dir, p.bar_dir)) > std::sin(kLoneAxisTolerance)) continue;
+    if (std::abs(std::log(q.period_px / expected_period_px)) > kJoinPeriodLn || used(k)) continue;
+    const double d = norm(q.center_px - partner_px);
+    if (d < best_d) best_d = d, best = k;
+  }
+  return best;
 }
 
 // The found pattern of partial element `e` turned a quarter about itself
@@ -71,16 +117,9 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
   for (int k : lone) {
     const BarPattern& p = D.patterns[k];
     if (p.period_px < 4) continue;  // a fine pattern's binarised period is not reliable enough to index it
-    const ChartElement* near = nullptr;
-    double near_d = 1e300;
-    for (const ChartElement& e : D.elements) {
-      if (D.patterns[e.h].predicted) continue;
-      const double d = norm(D.patterns[e.h].center_px - p.center_px);
-      if (d < near_d) near_d = d, near = &e;
-    }
-    if (!near) continue;
-    const Vec2 d = D.patterns[near->v].center_px - D.patterns[near->h].center_px;
-    const Vec2 ex = (1.0 / norm(d)) * d;
+    const std::optional<Vec2> near_h_to_v = nearest_h_to_v(D, p.center_px);
+    if (!near_h_to_v) continue;
+    const Vec2 ex = *near_h_to_v;
     // A chart's patterns run along its axes: a lone one turned from both
     // (a blurred numeral's strokes: dev_04's "6" beside G5E6, 11 deg) is no
     // element. Those found on the development set lie within 6.5 deg of
@@ -114,11 +153,14 @@ std::vector<ChartElement> partial_elements(const ChartDetection& D, const std::v
 // arrangement recognised, each missing partner is placed on the side the
 // maker's style puts it (h_side: an element 1 or an odd group's element
 // has its H triplet right of the V on real charts), not the side of the
-// nearest complete element; and one that lies in the image is then a
+// nearest complete element. A lone pattern found where the partner stands
+// completes the element (ChartElement::partner_joined). Otherwise, with
+// the arrangement recognised, a partner that lies in the image is a
 // prediction like a column's end, no longer a guess: it joins its found
 // pattern as an element and is measured there (dev_02's G7E1 H, too faint
 // beside its V triplet to binarise). A partner out of view stays partial.
-void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partial, int cols, int rows) {
+void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partial, const std::vector<int>& lone,
+                             int cols, int rows) {
   std::erase_if(partial, [&](const ChartElement& p) {
     return std::any_of(D.elements.begin(), D.elements.end(),
                        [&](const ChartElement& e) { return e.relative_index == p.relative_index; });
@@ -129,22 +171,31 @@ void number_partial_elements(ChartDetection& D, std::vector<ChartElement> partia
     const int n = D.largest_index + e.relative_index;
     e.group = floor_div6(n);
     e.element = n - 6 * e.group + 1;
-    if (!A.recognised) {
+    const BarPattern& found = D.patterns[e.h >= 0 ? e.h : e.v];
+    const std::optional<Vec2> h_to_v =
+        A.recognised ? std::optional<Vec2>(double(h_side(e.relative_index + A.phase, A.generated_style)) * chart_x_px(A))
+                     : nearest_h_to_v(D, found.center_px);
+    if (!h_to_v) {
       still_partial.push_back(e);
       continue;
     }
-    const Vec2 h_to_v = double(h_side(e.relative_index + A.phase, A.generated_style)) * chart_x_px(A);
-    const Vec2 partner_px = place_partner(D, e, h_to_v, cols, rows);
-    if (e.partial != ChartElement::Partial::partner_not_found) {
+    const Vec2 partner_px = place_partner(D, e, *h_to_v, cols, rows);
+    const int joined = e.partial == ChartElement::Partial::partner_not_found ? lone_partner(D, e, partner_px, lone, partial) : -1;
+    if (joined < 0 && (!A.recognised || e.partial != ChartElement::Partial::partner_not_found)) {
       still_partial.push_back(e);
       continue;
     }
-    D.patterns.push_back(predicted_partner(D, e, partner_px));
-    (e.h >= 0 ? e.v : e.h) = static_cast<int>(D.patterns.size()) - 1;
+    if (joined >= 0) {
+      (e.h >= 0 ? e.v : e.h) = joined;
+      e.partner_joined = true;
+    } else {
+      D.patterns.push_back(predicted_partner(D, e, partner_px));
+      (e.h >= 0 ? e.v : e.h) = static_cast<int>(D.patterns.size()) - 1;
+      ++D.partners_placed;
+    }
     e.partial = ChartElement::Partial::no;
     e.partial_reason.clear();
     D.elements.push_back(e);
-    ++D.partners_placed;
   }
   sort_by_index(D.elements);
   D.partial = std::move(still_partial);

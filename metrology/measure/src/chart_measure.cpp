@@ -408,10 +408,11 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
     if (e.v >= 0) refs.push_back({e.v, BarOrientation::vertical_bars, e.group, e.element, f, lone});
   };
   // An element whose missing pattern was placed beside the found one
-  // (ChartDetection::partners_placed) is lone like a partial one: no
-  // partner found confirms its index, so neither pattern joins the scale
+  // (ChartDetection::partners_placed), or found apart from it
+  // (ChartElement::partner_joined), is lone like a partial one: no
+  // partner paired confirms its index, so neither pattern joins the scale
   // field, the level step or the tracking anchors.
-  for (const ChartElement& e : D.elements) add_refs(e, partner_placed(D, e));
+  for (const ChartElement& e : D.elements) add_refs(e, index_from_one_pattern(D, e));
   for (const ChartElement& e : D.partial) add_refs(e, true);
   chart::PlacementStore store(lum, D, image.saturation_level);
   ShiftLog shifts;

@@ -175,8 +175,10 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
   // column or the nesting of the pairs (measured the same way).
   // An element of which one pattern was found and the other placed beside
   // it counts as found; the placed pattern is listed apart.
-  nlohmann::json placed = nlohmann::json::array(), partners = nlohmann::json::array();
+  nlohmann::json placed = nlohmann::json::array(), partners = nlohmann::json::array(),
+                 joined = nlohmann::json::array();
   for (const ChartElement& e : d.elements) {
+    if (e.partner_joined) joined.push_back({{"group", e.group}, {"element", e.element}});
     if (partner_placed(d, e))
       partners.push_back({{"group", e.group}, {"element", e.element},
                           {"placed", d.patterns[e.h].predicted ? "horizontal_bars" : "vertical_bars"}});
@@ -185,6 +187,9 @@ nlohmann::json chart_to_json(const ChartDetection& d) {
   }
   j["elements_found"] = d.elements.size() - placed.size();
   j["partners_placed"] = partners;
+  // Elements whose two patterns were found apart and joined by place
+  // (ChartElement::partner_joined).
+  j["partners_joined"] = joined;
   j["unpaired_patterns"] = d.unpaired_patterns;
   j["hv_period_ratio"] = d.hv_period_ratio;  // 1 face on; a chart seen obliquely is foreshortened
   j["single_pattern"] = d.single_pattern;  // one triplet in view, measured in the image's orientation

@@ -100,6 +100,11 @@ struct ChartElement {
   // image is placed and measured instead: ChartDetection::partners_placed.)
   enum class Partial { no, partner_out_of_view, partner_not_found } partial = Partial::no;
   std::string partial_reason;
+  // Its two patterns were found apart: one lone pattern indexed it, and the
+  // other, also lone, stands where the arrangement puts the partner, but
+  // with a period beyond the pairing's tolerance (a field's distortion).
+  // Both are measured; like a placed partner, neither confirms the index.
+  bool partner_joined = false;
 };
 
 struct ChartDetection {
@@ -179,6 +184,12 @@ struct ChartDetection {
 // beside it (ChartDetection::partners_placed).
 inline bool partner_placed(const ChartDetection& D, const ChartElement& e) {
   return e.h >= 0 && e.v >= 0 && D.patterns[e.h].predicted != D.patterns[e.v].predicted;
+}
+
+// Whether element e's index rests on one of its patterns alone: its
+// partner placed (partner_placed) or joined (ChartElement::partner_joined).
+inline bool index_from_one_pattern(const ChartDetection& D, const ChartElement& e) {
+  return e.partner_joined || partner_placed(D, e);
 }
 
 // Whether at least one of element e's patterns was found in the image (not
