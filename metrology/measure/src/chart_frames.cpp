@@ -136,6 +136,28 @@ double refine_shift(const ProfileData& d, double w_mm, bool light) {
   return best_shift;
 }
 
+// A triplet found one period off along its column (the binarised bars of
+// two neighbours, or a bar and a shoulder of the ground: a JPEG copy of
+// dev_04 took G6E3 H's lower two bars and the shoulder below them for its
+// triplet) matches the triplet's windows, the ground beyond its outer bars
+// counted as gaps (k_max 3), worse than the place one period along u. On a
+// true triplet a period's slip trades an outer bar for ground in the bar
+// windows and leaves the gap windows' sum as it was, so it scores lower,
+// however blurred the bars. Clearly: by a tenth of the contrast there and
+// by 3 sigma of the bins' noise.
+int period_slip_of(const Detrended& t, double w_mm, bool light) {
+  const WindowContrast here = bar_gap_contrast(t, w_mm, light, 0, 3);
+  int best = 0;
+  WindowContrast there = here;
+  for (const int s : {-1, 1}) {
+    const WindowContrast c = bar_gap_contrast(t, w_mm, light, 2 * s * w_mm, 3);
+    if (c.contrast > there.contrast) best = s, there = c;
+  }
+  if (best == 0 || here.contrast <= -1e300 || !(there.contrast > 0)) return 0;
+  const double gain = there.contrast - here.contrast;
+  return gain >= 0.1 * there.contrast && gain >= 3 * std::hypot(there.sigma, here.sigma) ? best : 0;
+}
+
 // The profile's ideal pattern stretched by `scale` about the pattern centre
 // (the complement's constant stays as it is).
 ProfileData scaled(const ProfileData& d, double scale) {
@@ -271,6 +293,29 @@ PatternFrame PlacementStore::recentre(const PatternRef& r, PatternFrame f, const
   const double shift_mm = refine_shift(p.data, r.bar_width_mm(), D_.light_bars);
   f.center_px = f.center_px + (shift_mm * f.px_per_mm) * across_dir(f, r.orientation);
   return f;
+}
+
+int period_slip(const ProfileData& d, double w_mm, bool light) {
+  const Detrended t = detrended(d);
+  return t.r.empty() ? 0 : period_slip_of(t, w_mm, light);
+}
+
+std::optional<PatternFrame> PlacementStore::unslipped(const PatternRef& r, const PatternFrame& f,
+                                                      const ProfileSamplingOptions& so) const {
+  // The windows one period along reach 5.25 bar widths from the centre:
+  // the strip's half-length 2.5 w plus a margin of 2.75 w or more.
+  ProfileSamplingOptions wide = so;
+  wide.margin_bar_widths = 3;
+  wide = fitted_in_view(r, f, wide);
+  if (wide.margin_bar_widths < 2.75) return std::nullopt;
+  const SampledProfile p = sample(r, f, wide);
+  if (!p.in_view) return std::nullopt;
+  const double w_mm = r.bar_width_mm();
+  const int slip = period_slip(p.data, w_mm, D_.light_bars);
+  if (slip == 0) return std::nullopt;
+  PatternFrame g = f;
+  g.center_px = f.center_px + (2 * slip * w_mm * f.px_per_mm) * across_dir(f, r.orientation);
+  return recentre(r, g, so);
 }
 
 // The shift the profile model itself prefers: one fit with the bars'

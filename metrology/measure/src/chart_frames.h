@@ -73,6 +73,12 @@ class PlacementStore {
   // the ideal pattern, within 0.6 bar). Callers decide whether a predicted
   // pattern is recentred (chart_jobs.cpp: only as a second placement).
   PatternFrame recentre(const PatternRef& r, PatternFrame f, const ProfileSamplingOptions& so) const;
+  // Frame `f` moved one period across the bars, where the triplet stands
+  // there rather than at `f` (period_slip, on a strip sampled wide enough
+  // to show both places), and recentred; none otherwise, and none where
+  // the wider strip does not fit in the image.
+  std::optional<PatternFrame> unslipped(const PatternRef& r, const PatternFrame& f,
+                                        const ProfileSamplingOptions& so) const;
 
  private:
   const cv::Mat& lum_;
@@ -81,6 +87,12 @@ class PlacementStore {
   std::deque<PatternFrame> frames_;
   std::deque<std::shared_ptr<const IndexedArtwork>> artworks_;
 };
+
+// Whether the triplet's bar and gap windows, with the ground beyond its
+// outer bars counted as gaps, match profile `d` (bars of width `w_mm`)
+// clearly better one period (2 w) along u than at its centre: +1 or -1,
+// the way along u; 0 if not. The profile must reach 5.25 w either way.
+int period_slip(const ProfileData& d, double w_mm, bool light);
 
 // `fo` with the pattern's bars free to move along u within a quarter of a
 // bar of width `w_mm` (ProfileFitOptions::fit_shift).

@@ -16,22 +16,24 @@ struct ProfileSpec {
   double noise_sd = 0.01;     // per bin mean
   double bin_px = 0.4;
   int filled_every = 1;       // 4 at bins of 0.25 px: one pixel column in every fourth bin
+  double half_bars = 4;       // the profile's reach either way, bar widths
+  double blur_bars = 0.4;     // the Gaussian's sigma, bar widths
 };
 
 // A triplet's profile at 40 px/mm (bars at -2w, 0, 2w moved by offset_px),
-// ground 1, blurred by a Gaussian of 0.4 bar, over +-4 bars, with white
-// noise on the filled bins.
+// ground 1, blurred by a Gaussian of blur_bars, over +-half_bars, with
+// white noise on the filled bins.
 ProfileData triplet_profile(const ProfileSpec& p, std::mt19937& rng) {
   constexpr double kPxPerMm = 40;
   const double w_mm = p.bar_px / kPxPerMm, shift_mm = p.offset_px / kPxPerMm;
   ProfileData d;
   d.bin_mm = p.bin_px / kPxPerMm;
-  d.bin_count = static_cast<int>(std::ceil(8 * w_mm / d.bin_mm));
+  d.bin_count = static_cast<int>(std::ceil(2 * p.half_bars * w_mm / d.bin_mm));
   d.u0_mm = -0.5 * d.bin_count * d.bin_mm;
   d.fit_begin = 0;
   d.fit_end = d.bin_count;
   std::normal_distribution<double> noise(0, p.noise_sd);
-  const double s = 0.4 * w_mm * std::sqrt(2.0);
+  const double s = p.blur_bars * w_mm * std::sqrt(2.0);
   for (int b = 0; b < d.bin_count; ++b) {
     const double u = d.bin_center_mm(b);
     double bar = 0;
@@ -162,4 +164,31 @@ TEST_CASE("scale field: a pattern far from samples along one column keeps its ow
   const tactres::Vec2 far{600, 200};
   CHECK(std::abs(std::log(f.at(far) / 20.0)) > 1);  // the plane has strayed by e times or more
   CHECK(f.at_or(far, 19.0) == 19.0);                // the pattern's own scale stands
+}
+
+TEST_CASE("period_slip: a triplet one period off is seen there, a centred one stays, however blurred") {
+  using namespace tactres::chart;
+  std::mt19937 rng(7);
+  for (const bool light : {false, true})
+    for (const double blur_bars : {0.4, 1.0}) {
+      ProfileSpec spec;
+      spec.bar_px = 3;
+      spec.light = light;
+      spec.half_bars = 6;
+      spec.blur_bars = blur_bars;
+      const double w_mm = spec.bar_px / 40;
+      CAPTURE(light);
+      CAPTURE(blur_bars);
+      for (const int slip : {-1, 0, 1}) {
+        spec.offset_px = 2 * slip * spec.bar_px;
+        CHECK(period_slip(triplet_profile(spec, rng), w_mm, light) == slip);
+      }
+      // A bar off is no period off: that is the correlation centring's to move.
+      spec.offset_px = spec.bar_px;
+      CHECK(period_slip(triplet_profile(spec, rng), w_mm, light) == 0);
+      // No bars: nothing to move to.
+      spec.offset_px = 2 * spec.bar_px;
+      spec.contrast = 0;
+      CHECK(period_slip(triplet_profile(spec, rng), w_mm, light) == 0);
+    }
 }

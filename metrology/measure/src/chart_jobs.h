@@ -37,4 +37,13 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
                                      const std::vector<PatternFrame>& frames, PlacementStore& store,
                                      const MeasureOptions& mo, ShiftLog* shifts);
 
+// Jobs of found patterns graded (`graded[j]`, on placement
+// `graded_placement[j]`) ok with one gap flat, whose triplet stands one
+// period along the column (PlacementStore::unslipped): that frame is added
+// as another placement. Returns how many were; their jobs must be sampled
+// and graded again.
+int add_unslipped_placements(const ChartDetection& D, const std::vector<PatternRef>& refs,
+                             std::vector<ElementJob>& jobs, PlacementStore& store, const ElementResult* graded,
+                             const std::vector<size_t>& graded_placement);
+
 }  // namespace tactres::chart

@@ -418,8 +418,8 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
   ShiftLog shifts;
   std::vector<PatternFrame> frames = chart::pattern_frames(D, refs, store, mo);
   chart::shift_predicted_groups(D, refs, frames, store, mo);
-  const std::vector<ElementJob> jobs = chart::pattern_jobs(D, refs, frames, store, mo, &shifts);
-  const auto profiles = sample_jobs(lum, jobs, image.saturation_level);
+  std::vector<ElementJob> jobs = chart::pattern_jobs(D, refs, frames, store, mo, &shifts);
+  auto profiles = sample_jobs(lum, jobs, image.saturation_level);
   M.stage_seconds.push_back({"frames", t.seconds()});
 
   t.restart();
@@ -442,7 +442,19 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
 
   std::vector<size_t> graded;
   const GradingContext context{M.reference, mo, false, true, nullptr, image.rounding};
-  M.stage_seconds.push_back({"fits", grade_jobs(jobs, profiles, context, M.elements, &graded)});
+  const size_t first = M.elements.size();
+  double fit_seconds = grade_jobs(jobs, profiles, context, M.elements, &graded);
+  // A triplet found a period off along its column shows a flat gap: where
+  // it stands one period along, that place is graded too.
+  if (chart::add_unslipped_placements(D, refs, jobs, store, M.elements.data() + first, graded) > 0) {
+    for (size_t j = 0; j < jobs.size(); ++j)
+      for (size_t k = profiles[j].size(); k < jobs[j].placements.size(); ++k)
+        profiles[j].push_back(sample_placement(lum, jobs[j].placements[k], jobs[j].sampling,
+                                               jobs[j].complement_ideal, image.saturation_level));
+    M.elements.resize(first);
+    fit_seconds += grade_jobs(jobs, profiles, context, M.elements, &graded);
+  }
+  M.stage_seconds.push_back({"fits", fit_seconds});
   if (track) *track = make_track(image, D, refs, jobs, profiles, graded, shifts, store, M);
   decide_chart(D, mo, M);
   if (track && M.usable) {

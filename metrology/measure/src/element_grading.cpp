@@ -387,15 +387,17 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
       // sigma above this one and at m >= 0.3: past a defocus disc's first
       // zero the bars come back contrast-reversed, but at m of 0.13-0.22
       // at most, which a pattern locked half a period off could read.
-      // Each one or two steps of the series past the one before: an element
-      // between them may be missing (dev_01's 16-bit copy: G5E6, cut away
-      // by the fibre bundle's edge, lies between G5E5 and G6E1).
+      // Each one to three steps of the series past the one before: one or
+      // two elements between them may be missing (dev_01's 16-bit copy:
+      // G5E6, cut away by the fibre bundle's edge, lies between G5E5 and
+      // G6E1; in a JPEG copy of its 8-bit frame G5E5 is unmeasured too, and
+      // G5E4 H, its bars cut by that edge, fits m 0).
       bool finer_show_bars = true;
       for (size_t k = i + 1; k <= i + 2; ++k) {
         const ElementResult& f = *row[k];
         const double steps = std::log(f.lp_per_mm / row[k - 1]->lp_per_mm) / std::log(step);
         const long whole_steps = std::lround(steps);
-        const bool near_in_series = std::abs(steps - whole_steps) < 0.15 && whole_steps >= 1 && whole_steps <= 2;
+        const bool near_in_series = std::abs(steps - whole_steps) < 0.15 && whole_steps >= 1 && whole_steps <= 3;
         finer_show_bars = finer_show_bars && near_in_series && ok_and_resolved(f, criterion) && f.m >= 0.3 &&
                           f.m - m > 3 * std::hypot(f.m_sigma, sigma);
       }
