@@ -375,7 +375,7 @@ namespace {
 struct PairCandidate {
   int h = 0, v = 0;
   double ln_ratio = 0;         // ln(H period / V period)
-  double separation_cost = 0;  // how far the distance is from 3.5 periods
+  double separation_cost = 0;  // how far the distance is from 3.5 periods, and the centres from level
 };
 
 std::vector<PairCandidate> pair_candidates(const std::vector<BarPattern>& P, double max_ln_ratio) {
@@ -391,7 +391,12 @@ std::vector<PairCandidate> pair_candidates(const std::vector<BarPattern>& P, dou
       const double dist = norm(d), period = 0.5 * (h.period_px + v.period_px);
       if (dist < 2.5 * period || dist > 5.5 * period) continue;
       if (std::abs(dot(d, h.bar_dir)) < std::cos(15 * M_PI / 180) * dist) continue;
-      out.push_back({static_cast<int>(i), static_cast<int>(j), ln_ratio, 0.05 * std::abs(dist / period - 3.5)});
+      // An element's two patterns stand side by side, their centres level:
+      // a triplet found a period off along its column (two of its bars and
+      // a shoulder of the ground beside them) pairs level no more.
+      const double offset_periods = std::abs(dot(d, perp(h.bar_dir))) / period;
+      out.push_back({static_cast<int>(i), static_cast<int>(j), ln_ratio,
+                     0.05 * (std::abs(dist / period - 3.5) + offset_periods)});
     }
   return out;
 }

@@ -2,7 +2,9 @@
 // chart_detect_internal.h) against OpenCV's: the same 8-connected
 // partition of random masks of every density, widths that are and are not
 // multiples of 8, and the shapes that test the diagonal rule; and the local
-// contrast of its binarisation (local_contrast) against cv::blur.
+// contrast of its binarisation (local_contrast) against cv::blur; the
+// pairing of patterns into elements (pair_patterns).
+#include <cmath>
 #include <map>
 #include <random>
 #include <tuple>
@@ -106,5 +108,34 @@ TEST_CASE("local_contrast: the image less cv::blur's means (BORDER_REFLECT), ban
       REQUIRE(contrast[i].size() == img.size());
       CHECK(cv::norm(contrast[i], expected, cv::NORM_INF) <= 1e-3);  // float rounding of values up to 1000
     }
+  }
+}
+
+TEST_CASE("pair_patterns: of two H triplets beside a V one, the level one pairs, not one a period along") {
+  // A V triplet, and two H triplets 3.5 periods to its left: one level with
+  // it whose binarised period reads 3 % short, and one found 0.75 period
+  // down its column (two of its bars and the ground's shoulder: dev_04
+  // resized 1.25 times) whose period matches. (A whole period down, the
+  // line between the centres turns 16 degrees from the H bars, past the
+  // pairing's 15.)
+  for (const double turn_deg : {0.0, 30.0, 90.0}) {
+    CAPTURE(turn_deg);
+    const double a = turn_deg * M_PI / 180;
+    const Vec2 x{std::cos(a), std::sin(a)}, y{-std::sin(a), std::cos(a)};
+    const double p = 8;
+    const auto pattern = [&](Vec2 at, Vec2 bar_dir, double period) {
+      BarPattern b;
+      b.center_px = Vec2{300, 300} + at.x * x + at.y * y;
+      b.bar_dir = bar_dir;
+      b.period_px = period;
+      b.bar_length_px = 2.5 * period;
+      return b;
+    };
+    const std::vector<BarPattern> P{pattern({0, 0}, y, p), pattern({-3.5 * p, 0}, x, 0.97 * p),
+                                    pattern({-3.5 * p, 0.75 * p}, x, p)};
+    const Pairing pairing = pair_patterns(P);
+    REQUIRE(pairing.elements.size() == 1u);
+    CHECK(pairing.elements[0].v == 0);
+    CHECK(pairing.elements[0].h == 1);
   }
 }
