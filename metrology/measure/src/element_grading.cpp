@@ -387,17 +387,23 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
       // sigma above this one and at m >= 0.3: past a defocus disc's first
       // zero the bars come back contrast-reversed, but at m of 0.13-0.22
       // at most, which a pattern locked half a period off could read.
-      // Each one to three steps of the series past the one before: one or
-      // two elements between them may be missing (dev_01's 16-bit copy:
+      // Each on the series past the one before, with at most one element
+      // of the series between them not found at all (dev_01's 16-bit copy:
       // G5E6, cut away by the fibre bundle's edge, lies between G5E5 and
-      // G6E1; in a JPEG copy of its 8-bit frame G5E5 is unmeasured too, and
-      // G5E4 H, its bars cut by that edge, fits m 0).
+      // G6E1); elements found between them but not measured do not count
+      // (their indices are known: in a JPEG copy of dev_01's 8-bit frame
+      // G5E5 H is fit_failed, and G5E4 H, its bars cut by that edge, fits m 0).
       bool finer_show_bars = true;
       for (size_t k = i + 1; k <= i + 2; ++k) {
         const ElementResult& f = *row[k];
-        const double steps = std::log(f.lp_per_mm / row[k - 1]->lp_per_mm) / std::log(step);
+        const double coarser_lp = row[k - 1]->lp_per_mm;
+        const double steps = std::log(f.lp_per_mm / coarser_lp) / std::log(step);
         const long whole_steps = std::lround(steps);
-        const bool near_in_series = std::abs(steps - whole_steps) < 0.15 && whole_steps >= 1 && whole_steps <= 3;
+        const long found_between = std::count_if(M.elements.begin(), M.elements.end(), [&](const ElementResult& x) {
+          return x.orientation == o && x.lp_per_mm > coarser_lp * 1.01 && x.lp_per_mm < f.lp_per_mm / 1.01;
+        });
+        const bool near_in_series =
+            std::abs(steps - whole_steps) < 0.15 && whole_steps >= 1 && whole_steps - 1 - found_between <= 1;
         finer_show_bars = finer_show_bars && near_in_series && ok_and_resolved(f, criterion) && f.m >= 0.3 &&
                           f.m - m > 3 * std::hypot(f.m_sigma, sigma);
       }

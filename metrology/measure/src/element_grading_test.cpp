@@ -66,7 +66,7 @@ TEST_CASE("damaged: not when a finer neighbour is unresolved or within the error
   CHECK(d.elements[1].status == ElementStatus::damaged);
 }
 
-TEST_CASE("damaged: across one or two missing elements of the series, not across three missing in a row") {
+TEST_CASE("damaged: across one missing element of the series, not across two missing in a row") {
   Criterion c;
   // E2 shows no bars; E3 was never found (cut away by the field's edge):
   // E4 and E5, one and two steps past the gap, show the bars.
@@ -75,18 +75,18 @@ TEST_CASE("damaged: across one or two missing elements of the series, not across
   grade_damaged(one_gap, c);
   CHECK(one_gap.elements[1].status == ElementStatus::damaged);
   CHECK(one_gap.elements[1].note.find("G2E4 and G2E5") != std::string::npos);
-  // E3 and E4 both missing (one unmeasured, one not found: a JPEG copy of
-  // dev_01): E5 and E6, three and four steps on, still speak for E2.
+  // E3 and E4 both missing: E5 is three steps on, too far to speak for E2.
   Measurement two_gap = row_of({0.8, 0.02, 0.7, 0.6, 0.5, 0.4});
   two_gap.elements.erase(two_gap.elements.begin() + 2, two_gap.elements.begin() + 4);
   grade_damaged(two_gap, c);
-  CHECK(two_gap.elements[1].status == ElementStatus::damaged);
-  // E3, E4 and E5 missing: the next one is four steps on, too far for its
-  // index to be sure of.
-  Measurement three_gap = row_of({0.8, 0.02, 0.7, 0.6, 0.5, 0.4, 0.35});
-  three_gap.elements.erase(three_gap.elements.begin() + 2, three_gap.elements.begin() + 5);
-  grade_damaged(three_gap, c);
-  CHECK(three_gap.elements[1].status == ElementStatus::ok);
+  CHECK(two_gap.elements[1].status == ElementStatus::ok);
+  // E3 and E4 found but not measured (fit_failed: cut by the field's edge),
+  // E5 not found: their indices are known, and one element is missing.
+  Measurement unmeasured = row_of({0.8, 0.02, 0.7, 0.6, 0.5, 0.4, 0.35});
+  unmeasured.elements.erase(unmeasured.elements.begin() + 4);
+  for (const size_t k : {2, 3}) unmeasured.elements[k].status = ElementStatus::fit_failed;
+  grade_damaged(unmeasured, c);
+  CHECK(unmeasured.elements[1].status == ElementStatus::damaged);
 }
 
 namespace {
