@@ -13,7 +13,8 @@
 // absolute identification) is measured and printed, and must not fall
 // below the level reached so far (kMinAgreement); the goal is 90 %.
 // Turned by 90 or 180 deg or mirrored, the labelled captures must never be
-// identified differently; saved as JPEG they must read as the originals.
+// identified differently; saved as JPEG they must be identified as the
+// originals and read within one element of them.
 
 #include <algorithm>
 #include <cstdlib>
@@ -356,8 +357,8 @@ TEST_CASE("real chart captures saved as JPEG read as the originals") {
     for (const std::string o : {"horizontal_bars", "vertical_bars"}) {
       CAPTURE(o);
       const json &l = (*r.j)["limits"][o], &l0 = (*original.j)["limits"][o];
-      REQUIRE(l["resolved_any"] == l0["resolved_any"]);
-      if (l0["resolved_any"] != true) continue;
+      CHECK(l["resolved_any"] == l0["resolved_any"]);
+      if (l0["resolved_any"] != true || l["resolved_any"] != true) continue;
       ++compared;
       CHECK(std::abs(element_index(l["group"], l["element"]) - element_index(l0["group"], l0["element"])) <= 1);
     }

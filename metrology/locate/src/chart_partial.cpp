@@ -55,13 +55,15 @@ std::optional<Vec2> nearest_h_to_v(const ChartDetection& D, Vec2 at_px) {
 
 // A lone pattern found where partial element e's missing partner stands
 // (`partner_px`): bars within kLoneAxisTolerance of a quarter turn from the
-// found pattern's, its centre within kJoinReachPeriods of the place, and a
-// period within kJoinPeriodLn (natural log) of the partner's predicted
-// one; the nearest such, not a pattern of any element; -1 if none. The
-// pairing's own period tolerance is tighter: near a lit disc's rim
-// (dev_12) a field's distortion squeezes one of an element's two patterns
-// by 15 %, and the pair is not made, though each was found.
-constexpr double kJoinReachPeriods = 0.5, kJoinPeriodLn = 0.3;
+// found pattern's, its centre within kJoinReachPeriods of the place, a
+// period of 4 px or more (as a partial element's) and within kJoinPeriodLn
+// (natural log) of the partner's predicted one; the nearest such, not a
+// pattern of any element; -1 if none. The pairing's own period tolerance
+// (0.15) is tighter: near a lit disc's rim (dev_12) a field's distortion
+// squeezes one of an element's two patterns by 15 % (ln -0.16), and the
+// pair is not made, though each was found. 0.2 is under two steps of the
+// series, so that where the place is right the pattern is this element's.
+constexpr double kJoinReachPeriods = 0.5, kJoinPeriodLn = 0.2;
 int lone_partner(const ChartDetection& D, const ChartElement& e, Vec2 partner_px, const std::vector<int>& lone,
                  const std::vector<ChartElement>& partial) {
   const BarPattern& p = D.patterns[e.h >= 0 ? e.h : e.v];
@@ -75,7 +77,7 @@ int lone_partner(const ChartDetection& D, const ChartElement& e, Vec2 partner_px
   double best_d = kJoinReachPeriods * p.period_px;
   for (int k : lone) {
     const BarPattern& q = D.patterns[k];
-    if (q.predicted || std::abs(dot(q.bar_dir, p.bar_dir)) > std::sin(kLoneAxisTolerance)) continue;
+    if (q.predicted || q.period_px < 4 || std::abs(dot(q.bar_dir, p.bar_dir)) > std::sin(kLoneAxisTolerance)) continue;
     if (std::abs(std::log(q.period_px / expected_period_px)) > kJoinPeriodLn || used(k)) continue;
     const double d = norm(q.center_px - partner_px);
     if (d < best_d) best_d = d, best = k;

@@ -4,6 +4,7 @@
 #include <random>
 
 #include <doctest/doctest.h>
+#include <opencv2/imgproc.hpp>
 
 namespace tactres::chart {
 namespace {
@@ -191,4 +192,40 @@ TEST_CASE("period_slip: a triplet one period off is seen there, a centred one st
       spec.contrast = 0;
       CHECK(period_slip(triplet_profile(spec, rng), w_mm, light) == 0);
     }
+}
+
+TEST_CASE("PlacementStore::unslipped: a frame a period off its triplet is moved onto it, one on it stays") {
+  using namespace tactres;
+  using namespace tactres::chart;
+  // A vertical-bar triplet, 4 px per bar, dark bars (0.3) on ground 1 at x
+  // 92, 100 and 108 px, 20 px long, blurred by a Gaussian of 1 px; its
+  // element at 1 lp/mm, so 8 px per mm. Its H partner stands 3.5 periods
+  // to the right, within the reach of the windows one period along.
+  cv::Mat lum(200, 200, CV_32F, cv::Scalar(1.0));
+  for (const int c : {92, 100, 108}) {
+    lum(cv::Rect(c - 2, 90, 4, 20)).setTo(0.3);
+    lum(cv::Rect(118, c - 2, 20, 4)).setTo(0.3);
+  }
+  cv::GaussianBlur(lum, lum, {0, 0}, 1.0);
+  for (const double found_x : {108.0, 92.0, 100.0}) {
+    CAPTURE(found_x);
+    ChartDetection D;
+    BarPattern p;
+    p.center_px = {found_x, 100};
+    p.bar_dir = {0, 1};
+    p.period_px = 8;
+    p.bar_length_px = 20;
+    D.patterns.push_back(p);
+    const PatternRef r{0, BarOrientation::vertical_bars, 0, 1, 1.0, false};
+    const PlacementStore store(lum, D, 2.0);
+    const PatternFrame f = frame_of(p, r.orientation, r.lp_per_mm);
+    const std::optional<PatternFrame> moved = store.unslipped(r, f, ProfileSamplingOptions{});
+    if (found_x == 100.0) {
+      CHECK_FALSE(moved);
+    } else {
+      REQUIRE(moved);
+      CHECK(moved->center_px.x == doctest::Approx(100).epsilon(0.004));  // within 0.4 px
+      CHECK(moved->center_px.y == doctest::Approx(100));
+    }
+  }
 }

@@ -184,16 +184,17 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
 // and the pipeline keeps whichever the model fits better. Only there:
 // elsewhere the check's wider strip is not sampled.
 int add_unslipped_placements(const ChartDetection& D, const std::vector<PatternRef>& refs,
-                             std::vector<ElementJob>& jobs, PlacementStore& store, const ElementResult* graded,
-                             const std::vector<size_t>& graded_placement) {
+                             std::vector<ElementJob>& jobs, PlacementStore& store,
+                             const std::vector<ElementResult>& graded, const std::vector<size_t>& graded_placement) {
+  CV_Assert(graded.size() == jobs.size() && graded_placement.size() == jobs.size());
   int added = 0;
   for (size_t j = 0; j < jobs.size(); ++j) {
     const ElementResult& e = graded[j];
     if (e.status != ElementStatus::ok || !e.gap_flat || D.patterns[refs[j].pattern].predicted) continue;
     ElementJob& job = jobs[j];
-    const auto* f = dynamic_cast<const PatternFrame*>(job.placements[graded_placement[j]].plane);
-    if (!f) continue;
-    const std::optional<PatternFrame> there = store.unslipped(refs[j], *f, job.sampling);
+    // Chart mode places every pattern through its own PatternFrame.
+    const auto& f = static_cast<const PatternFrame&>(*job.placements[graded_placement[j]].plane);
+    const std::optional<PatternFrame> there = store.unslipped(refs[j], f, job.sampling);
     if (!there) continue;
     job.placements.push_back(store.place(refs[j], *there, store.fitted_in_view(refs[j], *there, job.sampling)));
     ++added;

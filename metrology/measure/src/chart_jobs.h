@@ -43,7 +43,7 @@ std::vector<ElementJob> pattern_jobs(const ChartDetection& D, const std::vector<
 // as another placement. Returns how many were; their jobs must be sampled
 // and graded again.
 int add_unslipped_placements(const ChartDetection& D, const std::vector<PatternRef>& refs,
-                             std::vector<ElementJob>& jobs, PlacementStore& store, const ElementResult* graded,
-                             const std::vector<size_t>& graded_placement);
+                             std::vector<ElementJob>& jobs, PlacementStore& store,
+                             const std::vector<ElementResult>& graded, const std::vector<size_t>& graded_placement);
 
 }  // namespace tactres::chart

@@ -442,16 +442,18 @@ ChartMeasurement measure_detected(const LoadedImage& image, ChartDetection detec
 
   std::vector<size_t> graded;
   const GradingContext context{M.reference, mo, false, true, nullptr, image.rounding};
-  const size_t first = M.elements.size();
+  // M.elements[j] is jobs[j]'s (make_track relies on it too).
+  CV_Assert(M.elements.empty());
   double fit_seconds = grade_jobs(jobs, profiles, context, M.elements, &graded);
   // A triplet found a period off along its column shows a flat gap: where
-  // it stands one period along, that place is graded too.
-  if (chart::add_unslipped_placements(D, refs, jobs, store, M.elements.data() + first, graded) > 0) {
-    for (size_t j = 0; j < jobs.size(); ++j)
-      for (size_t k = profiles[j].size(); k < jobs[j].placements.size(); ++k)
-        profiles[j].push_back(sample_placement(lum, jobs[j].placements[k], jobs[j].sampling,
-                                               jobs[j].complement_ideal, image.saturation_level));
-    M.elements.resize(first);
+  // it stands one period along, that place is graded too. Rare (none of
+  // the real captures' patterns), so everything is sampled and graded
+  // again rather than patched: the fits' warm starts and the shift log
+  // stay those of one pass.
+  if (chart::add_unslipped_placements(D, refs, jobs, store, M.elements, graded) > 0) {
+    profiles = sample_jobs(lum, jobs, image.saturation_level);
+    M.elements.clear();
+    shifts.clear();  // keyed by the profiles just replaced
     fit_seconds += grade_jobs(jobs, profiles, context, M.elements, &graded);
   }
   M.stage_seconds.push_back({"fits", fit_seconds});

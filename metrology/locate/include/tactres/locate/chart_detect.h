@@ -120,7 +120,8 @@ struct ChartDetection {
   // warning; the option stands). Empty otherwise.
   std::string anchor_conflict;
   int largest_index = 0;            // absolute series index 6 g + e - 1 of relative index 0
-  int unpaired_patterns = 0;        // patterns found without a partner (measured only in `partial`)
+  int unpaired_patterns = 0;        // patterns the pairing left without a partner (measured only in
+                                    // `partial`, or in an element joined by place: partner_joined)
   double separation_periods = 3.5;  // an element's H-to-V centre distance in its periods (the chart's median)
   // The H triplets' period over the V triplets' (the ratio the patterns
   // were paired at): 1 seen face on; a chart seen obliquely is
