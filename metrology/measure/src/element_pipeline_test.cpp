@@ -116,7 +116,7 @@ TEST_CASE("grade_jobs: no element's noise is taken below the capture's code roun
   CHECK(floored[0].m == unfloored[0].m);
 }
 
-TEST_CASE("placement_replaces: the better fit, and a fit's own m over a model-free one") {
+TEST_CASE("placement_replaces: the better fit, and a fit's own m over a model-free one unless it fits far worse") {
   auto graded = [](ElementStatus s, double chi2, bool from_dips) {
     ElementResult r = ElementResult::of(2, 1, BarOrientation::vertical_bars, 5.0, 4.0);
     r.status = s;
@@ -125,15 +125,22 @@ TEST_CASE("placement_replaces: the better fit, and a fit's own m over a model-fr
     return r;
   };
   const ElementResult fit_ok = graded(ElementStatus::ok, 40, false), fit_ok_better = graded(ElementStatus::ok, 3, false);
-  const ElementResult dips = graded(ElementStatus::ok, 2, true), clipped = graded(ElementStatus::clipped, 1, false);
+  const ElementResult dips = graded(ElementStatus::ok, 20, true), clipped = graded(ElementStatus::clipped, 1, false);
   const ElementResult unfitted = graded(ElementStatus::fit_failed, 0, false);
   CHECK(placement_replaces(fit_ok_better, fit_ok));
   CHECK_FALSE(placement_replaces(fit_ok, fit_ok_better));
   CHECK_FALSE(placement_replaces(unfitted, fit_ok));
   CHECK(placement_replaces(fit_ok, unfitted));
-  // chi^2 does not rank a model-free reading against a fit's own.
+  // chi^2 does not rank a model-free reading finely against a fit's own
+  // (40 against 20: the fit wins)...
   CHECK(placement_replaces(fit_ok, dips));
   CHECK_FALSE(placement_replaces(dips, fit_ok));
+  // ...but a fit the same model matches over 4 times worse than at the
+  // model-free reading's placement sits off the bars (dev_14 turned by 5
+  // degrees, G6E6 H: m 0.000 at chi^2 451 against m 0.43 at 47).
+  const ElementResult fit_off = graded(ElementStatus::ok, 451, false), dips_on = graded(ElementStatus::ok, 47, true);
+  CHECK(placement_replaces(dips_on, fit_off));
+  CHECK_FALSE(placement_replaces(fit_off, dips_on));
   CHECK(placement_replaces(dips, clipped));
   CHECK_FALSE(placement_replaces(clipped, dips));
 }

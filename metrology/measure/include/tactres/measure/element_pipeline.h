@@ -77,8 +77,9 @@ struct GradingContext {
 // one the model fits better (lower reduced chi^2; an unfitted one, chi^2
 // 0, never wins). A model-free reading (ElementResult::m_from_dips)
 // carries the chi^2 of a fit that could not measure m, so chi^2 cannot
-// rank it against a fit that did: an ok fit wins over it, and it wins over
-// any other grade.
+// rank it finely against a fit that did: an ok fit wins over it unless its
+// chi^2 is over 4 times the model-free placement's (the fit then sits off
+// the bars), and it wins over any other grade.
 bool placement_replaces(const ElementResult& alt, const ElementResult& r);
 
 // Grades every job from its sampled placements (sample_jobs) into
