@@ -12,11 +12,13 @@
 // The agreement with the readings (discrete limit within one element,
 // absolute identification) is measured and printed, and must not fall
 // below the level reached so far (kMinAgreement); the goal is 90 %.
-// Turned by 90 or 180 deg or mirrored, the labelled captures must never be
-// identified differently; saved as JPEG they must be identified as the
-// originals and read within one element of them.
+// Turned by 90 or 180 deg or mirrored, or set down askew (resampled), the
+// labelled captures must never be identified differently; saved as JPEG
+// they must be identified as the originals and read within one element of
+// them.
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -141,32 +143,49 @@ void check_exit_codes_and_json() {
     }
 }
 
+// With absolute indices, no element of `j` called resolved more than one
+// element beyond the reading `im` (an entry of readings.json). Beyond the
+// chain, elements whose own profiles show three maxima (READINGS.md,
+// `three_maxima_beyond`) may be resolved on their own.
+void check_resolved_within_reading(const json& j, const json& im, const std::string& file) {
+  if (!absolute(j)) return;
+  for (const char* o : {"horizontal_bars", "vertical_bars"}) {
+    const json& reading = im[o];
+    if (reading.is_null() || !reading["finest_resolved"].contains("group")) continue;
+    const json& fr = reading["finest_resolved"];
+    const int limit = element_index(fr["group"], fr["element"]);
+    std::set<int> seen_beyond;
+    for (const json& b : reading.value("three_maxima_beyond", json::array()))
+      seen_beyond.insert(element_index(b["group"], b["element"]));
+    for (const json& e : j["elements"])
+      if (e["orientation"] == o && e["resolved"] == true && !seen_beyond.count(element_index(e["group"], e["element"]))) {
+        CAPTURE(file);
+        CAPTURE(o);
+        CAPTURE(e.dump());
+        CHECK(element_index(e["group"], e["element"]) <= limit + 1);
+      }
+  }
+}
+
 void check_nothing_resolved_beyond_reading() {
   const json all = readings();
   for (const json& im : all["images"])
     for (const char* key : {"file", "orig"}) {
       const std::string file = im[key];
       const Run& r = measure(file);
-      if (!r.j || !absolute(*r.j)) continue;
-      for (const char* o : {"horizontal_bars", "vertical_bars"}) {
-        const json& reading = im[o];
-        if (reading.is_null() || !reading["finest_resolved"].contains("group")) continue;
-        const json& fr = reading["finest_resolved"];
-        const int limit = element_index(fr["group"], fr["element"]);
-        // Beyond the chain, elements whose own profiles show three maxima
-        // (READINGS.md, `three_maxima_beyond`) may be resolved on their own.
-        std::set<int> seen_beyond;
-        for (const json& b : reading.value("three_maxima_beyond", json::array()))
-          seen_beyond.insert(element_index(b["group"], b["element"]));
-        for (const json& e : (*r.j)["elements"])
-          if (e["orientation"] == o && e["resolved"] == true && !seen_beyond.count(element_index(e["group"], e["element"]))) {
-            CAPTURE(file);
-            CAPTURE(o);
-            CAPTURE(e.dump());
-            CHECK(element_index(e["group"], e["element"]) <= limit + 1);
-          }
-      }
+      if (r.j) check_resolved_within_reading(*r.j, im, file);
     }
+}
+
+// How many elements the discrete limit of `j` in orientation `o` lies
+// from the reading `im`'s; nullopt without a reading there, absolute
+// indices, or anything resolved.
+std::optional<int> limit_from_reading(const json& j, const json& im, const char* o) {
+  const json& reading = im[o];
+  if (reading.is_null() || !reading["finest_resolved"].contains("group") || !absolute(j)) return std::nullopt;
+  const json &fr = reading["finest_resolved"], &l = j["limits"][o];
+  if (l["resolved_any"] != true) return std::nullopt;
+  return element_index(l["group"], l["element"]) - element_index(fr["group"], fr["element"]);
 }
 
 void check_agreement() {
@@ -203,9 +222,8 @@ void check_agreement() {
         got = ok ? "resolved" : "not resolved";
       } else if (usable && absolute(*r.j)) {
         const json& l = (*r.j)["limits"][o];
-        if (l["resolved_any"] == true) {
-          const int d = element_index(l["group"], l["element"]) - element_index(fr["group"], fr["element"]);
-          ok = std::abs(d) <= 1;
+        if (const std::optional<int> d = limit_from_reading(*r.j, im, o)) {
+          ok = std::abs(*d) <= 1;
           got = "G" + std::to_string(int(l["group"])) + "E" + std::to_string(int(l["element"]));
         } else {
           got = "nothing resolved";
@@ -366,6 +384,82 @@ TEST_CASE("real chart captures saved as JPEG read as the originals") {
   MESSAGE("saved as JPEG (quality 85): " << identified << " of 7 identified as the original; " << compared
                                          << " limits compared");
   CHECK(identified == 7);
+}
+
+namespace {
+
+// `image` turned by angle_deg about its centre, resampled (OpenImageIO's
+// default filter), its first three channels at most, 8 bits: a chart set
+// down askew. In the scratch folder, never in the repo.
+fs::path turned_by(const fs::path& image, double angle_deg) {
+  namespace oiio = OIIO;
+  const oiio::ImageBuf in(image.string());
+  const oiio::ImageBuf colour = oiio::ImageBufAlgo::channels(in, std::min(in.nchannels(), 3), {});
+  const oiio::ImageBuf out = oiio::ImageBufAlgo::rotate(colour, static_cast<float>(angle_deg * M_PI / 180));
+  const fs::path path = scratch_dir() / (image.stem().string() + "_askew" + std::to_string(int(angle_deg)) + ".png");
+  REQUIRE_MESSAGE(out.write(path.string(), oiio::TypeDesc::UINT8), out.geterror());
+  return path;
+}
+
+}  // namespace
+
+// Set down askew (turned by 5, -8 or 12 deg and resampled), a labelled
+// capture must never be identified differently from the original, should
+// be identified, and its limits should stay within one element of the
+// readings; nothing may be called resolved beyond them. (Askew by 5 or 8
+// deg, dev_04's inner pair nested about no point, its group 7 went
+// unpredicted and its V limit fell from G7E5 to G6E6 until a small
+// pattern's own error of place was allowed: fit_nesting.)
+constexpr int kMinAskewIdentified = 19;  // of 21 on 2026-12-03: dev_02 at 12 deg and dev_03 at -8 deg stay relative
+constexpr int kMinAskewAgreeing = 36;    // of the 42 readings on 2026-12-03
+
+TEST_CASE("real chart captures set down askew are never identified differently") {
+  if (!fs::exists(kRealdata)) {
+    MESSAGE("skipped: " << kRealdata.string() << " is absent (the real captures are never copied into the repo)");
+    return;
+  }
+  std::map<std::string, json> by_orig;
+  const json all = readings();
+  for (const json& im : all["images"]) by_orig[im["orig"].get<std::string>()] = im;
+  int tried = 0, identified = 0, readings_n = 0, agreeing = 0;
+  std::string table;
+  for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
+                                 "dev_05_orig.png", "dev_11_orig.png", "dev_14_orig.png"}) {
+    const Run& original = measure(file);
+    REQUIRE(original.j);
+    REQUIRE(absolute(*original.j));
+    const json& im = by_orig.at(file);
+    for (const double angle_deg : {5.0, -8.0, 12.0}) {
+      const Run& r = measure_image(turned_by(kRealdata / file, angle_deg));
+      CAPTURE(file);
+      CAPTURE(angle_deg);
+      REQUIRE(r.j);
+      CHECK((r.exit_code == 0 || r.exit_code == 1));
+      ++tried;
+      table += "  " + file + " turned " + std::to_string(int(angle_deg)) + " deg:";
+      for (const char* o : {"horizontal_bars", "vertical_bars"}) {
+        if (im[o].is_null()) continue;
+        ++readings_n;
+        const std::optional<int> d = limit_from_reading(*r.j, im, o);
+        agreeing += d && std::abs(*d) <= 1;
+        table += std::string(" ") + o[0] + (d ? (*d >= 0 ? " +" : " ") + std::to_string(*d) : std::string(" -"));
+      }
+      table += "\n";
+      if (!absolute(*r.j)) continue;
+      ++identified;
+      const json &got = (*r.j)["chart"]["largest_element"], &was = (*original.j)["chart"]["largest_element"];
+      CHECK(got["group"] == was["group"]);
+      CHECK(got["element"] == was["element"]);
+      check_resolved_within_reading(*r.j, im, file);
+    }
+  }
+  MESSAGE("set down askew: " << identified << " of " << tried << " identified as the original; " << agreeing << " of "
+                             << readings_n << " limits within one element of the reading (elements from it; - "
+                             << "relative or none)\n"
+                             << table);
+  CHECK(tried == 21);
+  CHECK(identified >= kMinAskewIdentified);
+  CHECK(agreeing >= kMinAskewAgreeing);
 }
 
 // Real photographs that hold no chart, from another project (Debian's
