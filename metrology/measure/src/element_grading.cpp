@@ -376,9 +376,19 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
     std::stable_sort(row.begin(), row.end(),
                      [](const ElementResult* a, const ElementResult* b) { return a->lp_per_mm < b->lp_per_mm; });
     const double step = std::exp2(1.0 / 6);  // one element finer
-    for (size_t i = 0; i + 2 < row.size(); ++i) {
+    // Fine to coarse, so that an element judged damaged is passed over as
+    // a coarser one looks for the next two finer: in a blurred copy of
+    // dev_01 the bundle's rim takes G5E3-E5 H (m 0, fit_failed, m 0) and
+    // the finer G6E1 and G6E2 read m 0.54 and 0.56; judged coarse to fine,
+    // G5E3 saw G5E5 still unresolved, ended the chain, and H read "nothing
+    // resolved".
+    for (size_t i = row.size(); i-- > 0;) {
       ElementResult& e = *row[i];
       if (ok_and_resolved(e, criterion)) continue;
+      std::vector<const ElementResult*> finer;  // the next two finer not judged damaged
+      for (size_t k = i + 1; k < row.size() && finer.size() < 2; ++k)
+        if (row[k]->status != ElementStatus::damaged) finer.push_back(row[k]);
+      if (finer.size() < 2) continue;
       // ok and unresolved: its m and sigma; aliased (no bars at all) and
       // low_signal (here: m driven to 0, its error not estimable): m = 0.
       const bool fitted = e.status == ElementStatus::ok;
@@ -394,9 +404,9 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
       // (their indices are known: in a JPEG copy of dev_01's 8-bit frame
       // G5E5 H is fit_failed, and G5E4 H, its bars cut by that edge, fits m 0).
       bool finer_show_bars = true;
-      for (size_t k = i + 1; k <= i + 2; ++k) {
-        const ElementResult& f = *row[k];
-        const double coarser_lp = row[k - 1]->lp_per_mm;
+      for (size_t k = 0; k < 2; ++k) {
+        const ElementResult& f = *finer[k];
+        const double coarser_lp = (k == 0 ? e : *finer[0]).lp_per_mm;
         const double steps = std::log(f.lp_per_mm / coarser_lp) / std::log(step);
         const long whole_steps = std::lround(steps);
         const long found_between = std::count_if(M.elements.begin(), M.elements.end(), [&](const ElementResult& x) {
@@ -408,7 +418,7 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
                           f.m - m > 3 * std::hypot(f.m_sigma, sigma);
       }
       if (!finer_show_bars) continue;
-      const ElementResult &f1 = *row[i + 1], &f2 = *row[i + 2];
+      const ElementResult &f1 = *finer[0], &f2 = *finer[1];
       e.note = fmt::format(
           "{}; the finer G{}E{} and G{}E{} read m = {:.2f} and {:.2f}: a local defect over this element (dust, a "
           "scratch, the field's blurred edge), not the optics; left out of the limit",

@@ -89,6 +89,32 @@ TEST_CASE("damaged: across one missing element of the series, not across two mis
   CHECK(unmeasured.elements[1].status == ElementStatus::damaged);
 }
 
+TEST_CASE("damaged: a coarser element looks past finer ones judged damaged") {
+  Criterion c;
+  // The field's rim over E1-E3 (a blurred copy of dev_01: G5E3-E5 H): E1
+  // and E3 show no bars, E2 is not measured, E4 and E5 show them. E3 is
+  // damaged by E4 and E5, and so, looking past E2 and E3, is E1.
+  Measurement M = row_of({0.0, 0.5, 0.0, 0.55, 0.55, 0.3});
+  M.elements[0].status = M.elements[2].status = ElementStatus::low_signal;
+  M.elements[1].status = ElementStatus::fit_failed;
+  grade_damaged(M, c);
+  CHECK(M.elements[2].status == ElementStatus::damaged);
+  CHECK(M.elements[0].status == ElementStatus::damaged);
+  CHECK(M.elements[0].note.find("G2E4 and G2E5") != std::string::npos);
+  decide_limits(M, c, {}, true);
+  const Limit& optical = M.vertical_parts.optical;
+  CHECK(optical.group == 2);
+  CHECK(optical.element == 6);
+  // Not when the element past the rim shows no bars either (E4 m 0.05):
+  // E3 is not judged damaged, so E1 looks at E3 and E4 and stays ok.
+  Measurement N = row_of({0.0, 0.5, 0.0, 0.05, 0.55, 0.05});
+  N.elements[0].status = N.elements[2].status = ElementStatus::low_signal;
+  N.elements[1].status = ElementStatus::fit_failed;
+  grade_damaged(N, c);
+  CHECK(N.elements[2].status == ElementStatus::low_signal);
+  CHECK(N.elements[0].status == ElementStatus::low_signal);
+}
+
 namespace {
 
 // A vertical-bar triplet (bar width 0.1 mm, at 40 px/mm 4 px per bar)

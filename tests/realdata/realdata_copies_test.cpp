@@ -1,0 +1,306 @@
+// The labelled real captures (../shared/realdata) as other tools and
+// other set-ups would hand them over: turned by 90 or 180 deg or mirrored
+// (pixels moved), set down askew (turned and resampled), defocused, saved
+// as JPEG. Each copy is made with OpenImageIO in the process's scratch
+// folder, never in the repo, and must never be identified differently from
+// its original; askew its limits are held to the readings, defocused they
+// may never rise, as JPEG they stay within one element of the original's.
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <string>
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+#include <doctest/doctest.h>
+
+#include "realdata_runs.h"
+
+using namespace tactres_realdata;
+
+namespace {
+
+// The copy names its largest element found as the original would: the
+// same element, or (when the copy finds a different one: dev_03 askew by
+// 12 deg loses G4E2) the index its period says, 2^(1/6) per index from
+// the original's largest. Periods as found: defocused by 13 px, dev_14's
+// G4E1 reads 4.6 % long (0.39 of a step).
+void check_identified_alike(const json& copy, const json& original) {
+  const json &got = copy["chart"]["largest_element"], &was = original["chart"]["largest_element"];
+  const double steps = 6 * std::log2(was["period_px"].get<double>() / got["period_px"].get<double>());
+  CAPTURE(steps);
+  CHECK(std::abs(steps - std::round(steps)) < 0.45);
+  CHECK(element_index(got["group"], got["element"]) - element_index(was["group"], was["element"]) ==
+        std::lround(steps));
+}
+
+}  // namespace
+
+namespace {
+
+// `image` turned or mirrored, its code values as read (a copy in the
+// scratch folder, never in the repo): ImageBufAlgo moves pixels only.
+// OpenImageIO may tag the copy with the colour space it assumed (sRGB for
+// an untagged 8-bit PNG), which tactres decodes alike.
+fs::path transformed(const fs::path& image, const std::string& how) {
+  namespace oiio = OIIO;
+  const oiio::ImageBuf in(image.string());
+  oiio::ImageBuf out = how == "turned_90"    ? oiio::ImageBufAlgo::rotate90(in)
+                       : how == "turned_180" ? oiio::ImageBufAlgo::rotate180(in)
+                                             : oiio::ImageBufAlgo::flop(in);
+  const fs::path path = scratch_dir() / (image.stem().string() + "_" + how + image.extension().string());
+  REQUIRE_MESSAGE(out.write(path.string()), out.geterror());
+  return path;
+}
+
+}  // namespace
+
+// The printed numbers are read upright as the arrangement turns them: a
+// capture turned by 90 or 180 deg or mirrored (pixels moved, nothing else)
+// must never be identified differently, and should be identified as it
+// is. (dev_03 turned 180 deg or mirrored stayed relative: its one group
+// number read, the "4" above G4E1, sat 0.3 bar widths off its band's
+// middle and lost its top third. The fibre-bundle frame dev_02 turned by
+// 90 or 180 deg stays relative: under its honeycomb the "7" reads as an 8
+// in one of its three ways.)
+constexpr int kMinTransformedIdentified = 16;  // of 18 on 2026-11-27
+
+TEST_CASE("real chart captures turned or mirrored are never identified differently") {
+  if (realdata_absent()) return;
+  int compared = 0, identified = 0;
+  std::string relative;
+  for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
+                                 "dev_05_orig.png", "dev_14_orig.png"}) {
+    const Run& original = measure(file);
+    REQUIRE(original.j);
+    REQUIRE(absolute(*original.j));  // as the agreement test requires of these
+    const json& largest = (*original.j)["chart"]["largest_element"];
+    for (const std::string how : {"turned_90", "turned_180", "mirrored"}) {
+      const Run& r = measure_image(transformed(kRealdata / file, how));
+      CAPTURE(file);
+      CAPTURE(how);
+      REQUIRE(r.j);
+      ++compared;
+      if (!absolute(*r.j)) {
+        relative += " " + file + " " + how;
+        continue;
+      }
+      ++identified;
+      const json& got = (*r.j)["chart"]["largest_element"];
+      CHECK(got["group"] == largest["group"]);
+      CHECK(got["element"] == largest["element"]);
+      // The same element: its period as found (pixels moved only).
+      CHECK(got["period_px"].get<double>() == doctest::Approx(largest["period_px"].get<double>()).epsilon(0.05));
+    }
+  }
+  MESSAGE("turned or mirrored: " << identified << " of " << compared << " identified as the original; relative:"
+                                 << (relative.empty() ? " none" : relative));
+  CHECK(compared == 18);
+  CHECK(identified >= kMinTransformedIdentified);
+}
+
+namespace {
+
+// `image` saved as a JPEG of quality 85 (its first three channels at most,
+// 8 bits), as captures are often shared: in the scratch folder, never in
+// the repo.
+fs::path as_jpeg(const fs::path& image) {
+  namespace oiio = OIIO;
+  const oiio::ImageBuf in(image.string());
+  const int channels = std::min(in.nchannels(), 3);
+  oiio::ImageBuf out = oiio::ImageBufAlgo::channels(in, channels, {});
+  out.specmod().attribute("Compression", "jpeg:85");
+  const fs::path path = scratch_dir() / (image.stem().string() + "_q85.jpg");
+  REQUIRE_MESSAGE(out.write(path.string(), oiio::TypeDesc::UINT8), out.geterror());
+  return path;
+}
+
+}  // namespace
+
+// Saved as a JPEG of quality 85, a labelled capture must be identified as
+// the original and read within one element of it in each orientation. (Its
+// 8x8 blocks move a binarised bar's edge by a fraction of a pixel: a JPEG
+// copy of dev_04 found G6E3 H's triplet one period down its column, in its
+// lower two bars and the shoulder of the ground below them, and its limit
+// fell from G6E5 to G6E2 until such a slip was looked for:
+// PlacementStore::unslipped.)
+TEST_CASE("real chart captures saved as JPEG read as the originals") {
+  if (realdata_absent()) return;
+  int compared = 0, identified = 0;
+  for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
+                                 "dev_05_orig.png", "dev_11_orig.png", "dev_14_orig.png"}) {
+    const Run& original = measure(file);
+    REQUIRE(original.j);
+    REQUIRE(absolute(*original.j));
+    const Run& r = measure_image(as_jpeg(kRealdata / file));
+    CAPTURE(file);
+    REQUIRE(r.j);
+    CHECK((r.exit_code == 0 || r.exit_code == 1));
+    if (!absolute(*r.j)) continue;
+    ++identified;
+    const json &got = (*r.j)["chart"]["largest_element"], &was = (*original.j)["chart"]["largest_element"];
+    CHECK(got["group"] == was["group"]);
+    CHECK(got["element"] == was["element"]);
+    for (const std::string o : {"horizontal_bars", "vertical_bars"}) {
+      CAPTURE(o);
+      const json &l = (*r.j)["limits"][o], &l0 = (*original.j)["limits"][o];
+      CHECK(l["resolved_any"] == l0["resolved_any"]);
+      if (l0["resolved_any"] != true || l["resolved_any"] != true) continue;
+      ++compared;
+      CHECK(std::abs(element_index(l["group"], l["element"]) - element_index(l0["group"], l0["element"])) <= 1);
+    }
+  }
+  MESSAGE("saved as JPEG (quality 85): " << identified << " of 7 identified as the original; " << compared
+                                         << " limits compared");
+  CHECK(identified == 7);
+}
+
+namespace {
+
+// `image` turned by angle_deg about its centre, resampled (OpenImageIO's
+// default filter), its first three channels at most, 8 bits: a chart set
+// down askew. In the scratch folder, never in the repo.
+fs::path turned_by(const fs::path& image, double angle_deg) {
+  namespace oiio = OIIO;
+  const oiio::ImageBuf in(image.string());
+  const oiio::ImageBuf colour = oiio::ImageBufAlgo::channels(in, std::min(in.nchannels(), 3), {});
+  const oiio::ImageBuf out = oiio::ImageBufAlgo::rotate(colour, static_cast<float>(angle_deg * M_PI / 180));
+  const fs::path path = scratch_dir() / (image.stem().string() + "_askew" + std::to_string(int(angle_deg)) + ".png");
+  REQUIRE_MESSAGE(out.write(path.string(), oiio::TypeDesc::UINT8), out.geterror());
+  return path;
+}
+
+}  // namespace
+
+// Set down askew (turned by 5, -8 or 12 deg and resampled), a labelled
+// capture must never be identified differently from the original, should
+// be identified, and its limits should stay within one element of the
+// readings; no limit may lie more than one element beyond them. (Askew by
+// 5 or 8 deg, dev_04's inner pair nested about no point, its group 7 went
+// unpredicted and its V limit fell from G7E5 to G6E6 until a small
+// pattern's own error of place was allowed: fit_nesting.) Single elements
+// past the chain are not held to the readings here, as they are in the
+// originals: 21 copies of 20-60 elements each, judged at 2 sigma, show
+// a few by chance (dev_11 askew by 5 deg: G3E3 H, m 0.21 +- 0.09, three
+// past the reading, between unresolved neighbours).
+constexpr int kMinAskewIdentified = 19;  // of 21 on 2026-12-03: dev_02 at 12 deg and dev_03 at -8 deg stay relative
+constexpr int kMinAskewAgreeing = 36;    // of the 42 readings on 2026-12-03
+
+TEST_CASE("real chart captures set down askew are never identified differently") {
+  if (realdata_absent()) return;
+  std::map<std::string, json> by_orig;
+  const json all = readings();
+  for (const json& im : all["images"]) by_orig[im["orig"].get<std::string>()] = im;
+  int tried = 0, identified = 0, readings_n = 0, agreeing = 0;
+  std::string table;
+  for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
+                                 "dev_05_orig.png", "dev_11_orig.png", "dev_14_orig.png"}) {
+    const Run& original = measure(file);
+    REQUIRE(original.j);
+    REQUIRE(absolute(*original.j));
+    const json& im = by_orig.at(file);
+    for (const double angle_deg : {5.0, -8.0, 12.0}) {
+      const Run& r = measure_image(turned_by(kRealdata / file, angle_deg));
+      CAPTURE(file);
+      CAPTURE(angle_deg);
+      REQUIRE(r.j);
+      CHECK((r.exit_code == 0 || r.exit_code == 1));
+      ++tried;
+      table += "  " + file + " turned " + std::to_string(int(angle_deg)) + " deg:";
+      for (const char* o : {"horizontal_bars", "vertical_bars"}) {
+        if (im[o].is_null()) continue;
+        ++readings_n;
+        const std::optional<int> d = limit_from_reading(*r.j, im, o);
+        agreeing += d && std::abs(*d) <= 1;
+        table += std::string(" ") + o[0] + (d ? (*d >= 0 ? " +" : " ") + std::to_string(*d) : std::string(" -"));
+      }
+      table += "\n";
+      if (!absolute(*r.j)) continue;
+      ++identified;
+      check_identified_alike(*r.j, *original.j);
+      for (const char* o : {"horizontal_bars", "vertical_bars"})
+        if (const std::optional<int> d = limit_from_reading(*r.j, im, o)) CHECK(*d <= 1);
+    }
+  }
+  MESSAGE("set down askew: " << identified << " of " << tried << " identified as the original; " << agreeing << " of "
+                             << readings_n << " limits within one element of the reading (elements from it; - "
+                             << "relative or none)\n"
+                             << table);
+  CHECK(tried == 21);
+  CHECK(identified >= kMinAskewIdentified);
+  CHECK(agreeing >= kMinAskewAgreeing);
+}
+
+namespace {
+
+// `image` defocused: convolved with a Gaussian kernel `width_px` wide
+// (OpenImageIO's make_kernel), its first three channels at most, 8 bits.
+// In the scratch folder, never in the repo.
+fs::path defocused(const fs::path& image, int width_px) {
+  namespace oiio = OIIO;
+  const oiio::ImageBuf in(image.string());
+  const oiio::ImageBuf colour = oiio::ImageBufAlgo::channels(in, std::min(in.nchannels(), 3), {});
+  const oiio::ImageBuf kernel = oiio::ImageBufAlgo::make_kernel("gaussian", float(width_px), float(width_px));
+  const oiio::ImageBuf out = oiio::ImageBufAlgo::convolve(colour, kernel);
+  const fs::path path = scratch_dir() / (image.stem().string() + "_blur" + std::to_string(width_px) + ".png");
+  REQUIRE_MESSAGE(out.write(path.string(), oiio::TypeDesc::UINT8), out.geterror());
+  return path;
+}
+
+}  // namespace
+
+// Defocused (Gaussian kernels 7 and 13 px wide), a labelled capture must
+// never be identified differently, and where identified, no limit may
+// rise more than one element above the original's: blur never sharpens;
+// and each orientation must still resolve its coarse elements. (dev_01's
+// copies stay relative: the blur closes its small group numbers. One of
+// them read H "nothing resolved" while G6E1-G7E3 H showed bars, until a
+// coarse element looked past finer ones judged damaged: grade_damaged.)
+constexpr int kMinDefocusedIdentified = 12;  // of 14 on 2026-12-03: dev_01's two copies stay relative
+
+TEST_CASE("real chart captures defocused are never identified differently, nor read finer") {
+  if (realdata_absent()) return;
+  int tried = 0, identified = 0, resolved_any = 0;
+  std::string table;
+  for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
+                                 "dev_05_orig.png", "dev_11_orig.png", "dev_14_orig.png"}) {
+    const Run& original = measure(file);
+    REQUIRE(original.j);
+    REQUIRE(absolute(*original.j));
+    for (const int width_px : {7, 13}) {
+      const Run& r = measure_image(defocused(kRealdata / file, width_px));
+      CAPTURE(file);
+      CAPTURE(width_px);
+      REQUIRE(r.j);
+      CHECK((r.exit_code == 0 || r.exit_code == 1));
+      ++tried;
+      table += "  " + file + " blurred " + std::to_string(width_px) + " px:";
+      if (!absolute(*r.j)) {
+        table += " relative\n";
+        continue;
+      }
+      ++identified;
+      check_identified_alike(*r.j, *original.j);
+      for (const std::string o : {"horizontal_bars", "vertical_bars"}) {
+        CAPTURE(o);
+        const json &l = (*r.j)["limits"][o], &l0 = (*original.j)["limits"][o];
+        if (l["resolved_any"] != true) {
+          table += " " + o.substr(0, 1) + " none";
+          continue;
+        }
+        ++resolved_any;
+        const int d = element_index(l["group"], l["element"]) - element_index(l0["group"], l0["element"]);
+        table += " " + o.substr(0, 1) + (d >= 0 ? " +" : " ") + std::to_string(d);
+        CHECK(d <= 1);
+      }
+      table += "\n";
+    }
+  }
+  MESSAGE("defocused: " << identified << " of " << tried << " identified as the original; " << resolved_any
+                        << " limits resolved (elements from the original's)\n"
+                        << table);
+  CHECK(tried == 14);
+  CHECK(identified >= kMinDefocusedIdentified);
+  CHECK(resolved_any == 2 * identified);  // coarse elements survive the blur
+}
