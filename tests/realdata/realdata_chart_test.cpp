@@ -77,7 +77,6 @@ void check_nothing_resolved_beyond_reading() {
     }
 }
 
-
 void check_agreement() {
   int readings_n = 0, agree = 0, identified = 0, labelled = 0;
   std::string table;
@@ -135,7 +134,6 @@ void check_agreement() {
   CHECK(identified >= kMinIdentified);
 }
 
-
 }  // namespace
 
 // One test case, so that each capture is measured once (the runs are cached
@@ -148,7 +146,6 @@ TEST_CASE("real chart captures against the visual readings") {
   }
   SUBCASE("agreement within one element") { check_agreement(); }
 }
-
 
 // Real photographs that hold no chart, from another project (Debian's
 // libleptonica-dev, installed with Tesseract: a portrait and an angiogram):

@@ -21,6 +21,18 @@ using namespace tactres_realdata;
 
 namespace {
 
+// The labelled captures (anchored in the originals) the copies are made of.
+const char* const kLabelled[] = {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
+                                 "dev_05_orig.png", "dev_11_orig.png", "dev_14_orig.png"};
+
+// The original's measurement, anchored as the agreement test requires.
+const json& anchored_original(const std::string& file) {
+  const Run& original = measure(file);
+  REQUIRE(original.j);
+  REQUIRE(absolute(*original.j));
+  return *original.j;
+}
+
 // The copy names its largest element found as the original would: the
 // same element, or (when the copy finds a different one: dev_03 askew by
 // 12 deg loses G4E2) the index its period says, 2^(1/6) per index from
@@ -72,10 +84,8 @@ TEST_CASE("real chart captures turned or mirrored are never identified different
   std::string relative;
   for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
                                  "dev_05_orig.png", "dev_14_orig.png"}) {
-    const Run& original = measure(file);
-    REQUIRE(original.j);
-    REQUIRE(absolute(*original.j));  // as the agreement test requires of these
-    const json& largest = (*original.j)["chart"]["largest_element"];
+    const json& original = anchored_original(file);
+    const json& largest = original["chart"]["largest_element"];
     for (const std::string how : {"turned_90", "turned_180", "mirrored"}) {
       const Run& r = measure_image(transformed(kRealdata / file, how));
       CAPTURE(file);
@@ -128,23 +138,20 @@ fs::path as_jpeg(const fs::path& image) {
 TEST_CASE("real chart captures saved as JPEG read as the originals") {
   if (realdata_absent()) return;
   int compared = 0, identified = 0;
-  for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
-                                 "dev_05_orig.png", "dev_11_orig.png", "dev_14_orig.png"}) {
-    const Run& original = measure(file);
-    REQUIRE(original.j);
-    REQUIRE(absolute(*original.j));
+  for (const std::string file : kLabelled) {
+    const json& original = anchored_original(file);
     const Run& r = measure_image(as_jpeg(kRealdata / file));
     CAPTURE(file);
     REQUIRE(r.j);
     CHECK((r.exit_code == 0 || r.exit_code == 1));
     if (!absolute(*r.j)) continue;
     ++identified;
-    const json &got = (*r.j)["chart"]["largest_element"], &was = (*original.j)["chart"]["largest_element"];
+    const json &got = (*r.j)["chart"]["largest_element"], &was = original["chart"]["largest_element"];
     CHECK(got["group"] == was["group"]);
     CHECK(got["element"] == was["element"]);
     for (const std::string o : {"horizontal_bars", "vertical_bars"}) {
       CAPTURE(o);
-      const json &l = (*r.j)["limits"][o], &l0 = (*original.j)["limits"][o];
+      const json &l = (*r.j)["limits"][o], &l0 = original["limits"][o];
       CHECK(l["resolved_any"] == l0["resolved_any"]);
       if (l0["resolved_any"] != true || l["resolved_any"] != true) continue;
       ++compared;
@@ -194,11 +201,8 @@ TEST_CASE("real chart captures set down askew are never identified differently")
   for (const json& im : all["images"]) by_orig[im["orig"].get<std::string>()] = im;
   int tried = 0, identified = 0, readings_n = 0, agreeing = 0;
   std::string table;
-  for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
-                                 "dev_05_orig.png", "dev_11_orig.png", "dev_14_orig.png"}) {
-    const Run& original = measure(file);
-    REQUIRE(original.j);
-    REQUIRE(absolute(*original.j));
+  for (const std::string file : kLabelled) {
+    const json& original = anchored_original(file);
     const json& im = by_orig.at(file);
     for (const double angle_deg : {5.0, -8.0, 12.0}) {
       const Run& r = measure_image(turned_by(kRealdata / file, angle_deg));
@@ -218,7 +222,7 @@ TEST_CASE("real chart captures set down askew are never identified differently")
       table += "\n";
       if (!absolute(*r.j)) continue;
       ++identified;
-      check_identified_alike(*r.j, *original.j);
+      check_identified_alike(*r.j, original);
       for (const char* o : {"horizontal_bars", "vertical_bars"})
         if (const std::optional<int> d = limit_from_reading(*r.j, im, o)) CHECK(*d <= 1);
     }
@@ -263,11 +267,8 @@ TEST_CASE("real chart captures defocused are never identified differently, nor r
   if (realdata_absent()) return;
   int tried = 0, identified = 0, resolved_any = 0;
   std::string table;
-  for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
-                                 "dev_05_orig.png", "dev_11_orig.png", "dev_14_orig.png"}) {
-    const Run& original = measure(file);
-    REQUIRE(original.j);
-    REQUIRE(absolute(*original.j));
+  for (const std::string file : kLabelled) {
+    const json& original = anchored_original(file);
     for (const int width_px : {7, 13}) {
       const Run& r = measure_image(defocused(kRealdata / file, width_px));
       CAPTURE(file);
@@ -281,10 +282,10 @@ TEST_CASE("real chart captures defocused are never identified differently, nor r
         continue;
       }
       ++identified;
-      check_identified_alike(*r.j, *original.j);
+      check_identified_alike(*r.j, original);
       for (const std::string o : {"horizontal_bars", "vertical_bars"}) {
         CAPTURE(o);
-        const json &l = (*r.j)["limits"][o], &l0 = (*original.j)["limits"][o];
+        const json &l = (*r.j)["limits"][o], &l0 = original["limits"][o];
         if (l["resolved_any"] != true) {
           table += " " + o.substr(0, 1) + " none";
           continue;

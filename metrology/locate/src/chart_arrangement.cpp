@@ -251,10 +251,17 @@ BarPattern nested_pattern(const BarPattern& p, Vec2 centre_px) {
 // and 4.6 px) lie 2.1 px off the nested images about the point they give
 // together, and group 7 went unpredicted.
 constexpr double kNestingPlaceErrorPx = 2.5;
+// How far `fine`'s patterns lie from where `coarse`'s nest about centre_px
+// (the larger of the two distances).
+double nesting_miss_px(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse, Vec2 centre_px) {
+  const auto miss = [&](int f, int c) {
+    return norm(centre_px + kPairScale * (D.patterns[c].center_px - centre_px) - D.patterns[f].center_px);
+  };
+  return std::max(miss(fine.h, coarse.h), miss(fine.v, coarse.v));
+}
+
 bool nests(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse, Vec2 centre_px) {
-  const double tolerance_px = std::max(0.25 * fine.period_px, kNestingPlaceErrorPx);
-  return norm(nested_pattern(D.patterns[coarse.h], centre_px).center_px - D.patterns[fine.h].center_px) <= tolerance_px &&
-         norm(nested_pattern(D.patterns[coarse.v], centre_px).center_px - D.patterns[fine.v].center_px) <= tolerance_px;
+  return nesting_miss_px(D, fine, coarse, centre_px) <= std::max(0.25 * fine.period_px, kNestingPlaceErrorPx);
 }
 
 // The centre that element `fine` and the coarse one give: the mean of what
@@ -305,18 +312,24 @@ void reindex(std::vector<ChartElement>& E, const std::vector<std::pair<size_t, i
   sort_by_index(E);
 }
 
+// The elements that nest about one point, each with its index offset;
+// how many moved; and how far, in all, they lie from their nested images
+// about the point they give together.
+struct Nesting {
+  std::vector<std::pair<size_t, int>> inliers;
+  int moves = 0;
+  double miss_px = 0;
+};
+
 // More elements nest; among as many, fewer index moves (the periods are
 // believed where the places allow it: in dev_04 turned by 20 degrees the
 // inner pair's first two elements nest as found, and as well each moved
-// one index finer, about another point where no group 7 element is).
-bool better_nesting(const std::vector<std::pair<size_t, int>>& a, const std::vector<std::pair<size_t, int>>& b) {
-  if (a.size() != b.size()) return a.size() > b.size();
-  const auto moves = [](const std::vector<std::pair<size_t, int>>& in) {
-    int n = 0;
-    for (const auto& [j, delta] : in) n += delta != 0;
-    return n;
-  };
-  return moves(a) < moves(b);
+// one index finer, about another point where no group 7 element is); then
+// the closer fit.
+bool better_nesting(const Nesting& a, const Nesting& b) {
+  if (a.inliers.size() != b.inliers.size()) return a.inliers.size() > b.inliers.size();
+  if (a.moves != b.moves) return a.moves < b.moves;
+  return a.miss_px < b.miss_px;
 }
 
 }  // namespace
@@ -347,7 +360,19 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
   for (size_t i = 0; i < E.size(); ++i)
     for (int delta : offsets_for(E[i]))
       if (coarse.count(E[i].relative_index + delta - kPairIndices)) singles.push_back({i, delta});
-  std::vector<std::pair<size_t, int>> best_inliers;
+  const auto nesting_of = [&](std::vector<std::pair<size_t, int>> inliers) {
+    Nesting n;
+    if (!inliers.empty()) {
+      const Vec2 point_px = mean_centre(inliers);
+      for (const auto& [j, delta] : inliers) {
+        n.moves += delta != 0;
+        n.miss_px += nesting_miss_px(D, E[j], E[coarse.at(E[j].relative_index + delta - kPairIndices)], point_px);
+      }
+    }
+    n.inliers = std::move(inliers);
+    return n;
+  };
+  Nesting best;
   for (size_t a = 0; a < singles.size(); ++a)
     for (size_t b = a; b < singles.size(); ++b) {
       if (b != a && singles[a].first == singles[b].first) continue;
@@ -357,8 +382,9 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
         if (std::vector<std::pair<size_t, int>> again = inliers_about(mean_centre(inliers));
             again.size() > inliers.size())
           inliers = std::move(again);
-      if (better_nesting(inliers, best_inliers)) best_inliers = std::move(inliers);
+      if (Nesting n = nesting_of(std::move(inliers)); better_nesting(n, best)) best = std::move(n);
     }
+  const std::vector<std::pair<size_t, int>>& best_inliers = best.inliers;
   if (best_inliers.size() < 2) return std::nullopt;
   // The centre from all that nest; then each fine element takes the index
   // of the nested image it lies on.

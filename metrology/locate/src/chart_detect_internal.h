@@ -184,10 +184,10 @@ inline void sort_by_index(std::vector<ChartElement>& E) {
 // coarse to fine), and moves a fine element's index by one where its
 // position says its period misled (blur), keeping the indices unique;
 // nullopt when fewer than two elements nest about one point (two elements
-// are four patterns that must each land within a quarter period, or 2.5 px
-// for the smallest: dev_05's inner pair shows only G6E2 and G6E3). The
-// point is sought from each element alone and from each two together, and
-// among as many that nest, fewer index moves win.
+// are four patterns that must each land within a quarter period, and
+// never less than 2.5 px: dev_05's inner pair shows only G6E2 and G6E3).
+// The point is sought from each element alone and from each two together;
+// among as many that nest, fewer index moves win, then the closer fit.
 std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElement>& E);
 
 // See ChartDetection::predicted_elements: the ends of the columns found,

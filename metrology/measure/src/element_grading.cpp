@@ -376,19 +376,22 @@ void grade_damaged(Measurement& M, const Criterion& criterion) {
     std::stable_sort(row.begin(), row.end(),
                      [](const ElementResult* a, const ElementResult* b) { return a->lp_per_mm < b->lp_per_mm; });
     const double step = std::exp2(1.0 / 6);  // one element finer
-    // Fine to coarse, so that an element judged damaged is passed over as
+    // Fine to coarse, so that one element judged damaged is passed over as
     // a coarser one looks for the next two finer: in a blurred copy of
     // dev_01 the bundle's rim takes G5E3-E5 H (m 0, fit_failed, m 0) and
     // the finer G6E1 and G6E2 read m 0.54 and 0.56; judged coarse to fine,
     // G5E3 saw G5E5 still unresolved, ended the chain, and H read "nothing
-    // resolved".
+    // resolved". One only: a longer run without bars before two finer
+    // readings is no local defect the chain may pass in silence.
     for (size_t i = row.size(); i-- > 0;) {
       ElementResult& e = *row[i];
       if (ok_and_resolved(e, criterion)) continue;
-      std::vector<const ElementResult*> finer;  // the next two finer not judged damaged
+      std::vector<const ElementResult*> finer;  // the next two finer, past at most one judged damaged
+      int passed_over = 0;
       for (size_t k = i + 1; k < row.size() && finer.size() < 2; ++k)
         if (row[k]->status != ElementStatus::damaged) finer.push_back(row[k]);
-      if (finer.size() < 2) continue;
+        else if (finer.empty()) ++passed_over;
+      if (finer.size() < 2 || passed_over > 1) continue;
       // ok and unresolved: its m and sigma; aliased (no bars at all) and
       // low_signal (here: m driven to 0, its error not estimable): m = 0.
       const bool fitted = e.status == ElementStatus::ok;

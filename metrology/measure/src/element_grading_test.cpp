@@ -89,14 +89,25 @@ TEST_CASE("damaged: across one missing element of the series, not across two mis
   CHECK(unmeasured.elements[1].status == ElementStatus::damaged);
 }
 
+namespace {
+
+// Group 2's E1-E6 with the given m, E1 and E3 without bars (low_signal)
+// and E2 not measured (fit_failed): the field's rim over E1-E3.
+Measurement rim_row(const std::vector<double>& m) {
+  Measurement M = row_of(m);
+  M.elements[0].status = M.elements[2].status = ElementStatus::low_signal;
+  M.elements[1].status = ElementStatus::fit_failed;
+  return M;
+}
+
+}  // namespace
+
 TEST_CASE("damaged: a coarser element looks past finer ones judged damaged") {
   Criterion c;
   // The field's rim over E1-E3 (a blurred copy of dev_01: G5E3-E5 H): E1
   // and E3 show no bars, E2 is not measured, E4 and E5 show them. E3 is
   // damaged by E4 and E5, and so, looking past E2 and E3, is E1.
-  Measurement M = row_of({0.0, 0.5, 0.0, 0.55, 0.55, 0.3});
-  M.elements[0].status = M.elements[2].status = ElementStatus::low_signal;
-  M.elements[1].status = ElementStatus::fit_failed;
+  Measurement M = rim_row({0.0, 0.5, 0.0, 0.55, 0.55, 0.3});
   grade_damaged(M, c);
   CHECK(M.elements[2].status == ElementStatus::damaged);
   CHECK(M.elements[0].status == ElementStatus::damaged);
@@ -107,12 +118,19 @@ TEST_CASE("damaged: a coarser element looks past finer ones judged damaged") {
   CHECK(optical.element == 6);
   // Not when the element past the rim shows no bars either (E4 m 0.05):
   // E3 is not judged damaged, so E1 looks at E3 and E4 and stays ok.
-  Measurement N = row_of({0.0, 0.5, 0.0, 0.05, 0.55, 0.05});
-  N.elements[0].status = N.elements[2].status = ElementStatus::low_signal;
-  N.elements[1].status = ElementStatus::fit_failed;
+  Measurement N = rim_row({0.0, 0.5, 0.0, 0.05, 0.55, 0.05});
   grade_damaged(N, c);
   CHECK(N.elements[2].status == ElementStatus::low_signal);
   CHECK(N.elements[0].status == ElementStatus::low_signal);
+  // A longer run without bars is no local defect: E2-E4 show none before
+  // E5 and E6. E4 and E3 (past E4) are damaged; E2 would pass over two.
+  Measurement R = row_of({0.8, 0.0, 0.0, 0.0, 0.55, 0.55});
+  grade_damaged(R, c);
+  CHECK(R.elements[3].status == ElementStatus::damaged);
+  CHECK(R.elements[2].status == ElementStatus::damaged);
+  CHECK(R.elements[1].status == ElementStatus::ok);
+  decide_limits(R, c, {}, true);
+  CHECK(R.vertical_parts.optical.element == 1);
 }
 
 namespace {

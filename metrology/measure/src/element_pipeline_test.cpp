@@ -138,9 +138,18 @@ TEST_CASE("placement_replaces: the better fit, and a fit's own m over a model-fr
   // ...but a fit the same model matches over 4 times worse than at the
   // model-free reading's placement sits off the bars (dev_14 turned by 5
   // degrees, G6E6 H: m 0.000 at chi^2 451 against m 0.43 at 47).
-  const ElementResult fit_off = graded(ElementStatus::ok, 451, false), dips_on = graded(ElementStatus::ok, 47, true);
+  ElementResult fit_off = graded(ElementStatus::ok, 451, false), dips_on = graded(ElementStatus::ok, 47, true);
+  fit_off.m = 0.0;
+  dips_on.m = 0.43;
   CHECK(placement_replaces(dips_on, fit_off));
   CHECK_FALSE(placement_replaces(fit_off, dips_on));
+  // A fit that reads the bars as well as the dips keeps its place, however
+  // much better the model fits there (near the noise, chi^2 10 against 2).
+  ElementResult fit_on = graded(ElementStatus::ok, 10, false), dips_low = graded(ElementStatus::ok, 2, true);
+  fit_on.m = 0.6;
+  dips_low.m = 0.5;
+  CHECK_FALSE(placement_replaces(dips_low, fit_on));
+  CHECK(placement_replaces(fit_on, dips_low));
   CHECK(placement_replaces(dips, clipped));
   CHECK_FALSE(placement_replaces(clipped, dips));
 }

@@ -96,8 +96,9 @@ bool is_unmeasured(const ElementResult& r, bool chart_photograph);
 
 // Chart photographs: an element that shows no bars (unresolved `ok`, or
 // `aliased`) while the next two finer elements measured in its orientation
-// and not themselves judged damaged (judged fine to coarse; each one or
-// two steps of the series past the one before) are resolved
+// (judged fine to coarse, passing over at most one judged damaged; each
+// on the series past the one before, with at most one element between
+// them not found at all) are resolved
 // with m significantly above its own is `damaged`: a transfer
 // function does not rise with frequency, so the loss is local (dust, a
 // scratch, a defect of the chart, the blurred edge of the field), not the

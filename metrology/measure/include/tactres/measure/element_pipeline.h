@@ -78,8 +78,9 @@ struct GradingContext {
 // 0, never wins). A model-free reading (ElementResult::m_from_dips)
 // carries the chi^2 of a fit that could not measure m, so chi^2 cannot
 // rank it finely against a fit that did: an ok fit wins over it unless its
-// chi^2 is over 4 times the model-free placement's (the fit then sits off
-// the bars), and it wins over any other grade.
+// chi^2 is over 4 times the model-free placement's and its m below the
+// model-free m (the fit then sits off the bars), and it wins over any
+// other grade.
 bool placement_replaces(const ElementResult& alt, const ElementResult& r);
 
 // Grades every job from its sampled placements (sample_jobs) into
