@@ -33,6 +33,17 @@ const json& anchored_original(const std::string& file) {
   return *original.j;
 }
 
+// A copy's measurement: it must exit 0 or 1 and write a JSON with no NaN.
+const json& measured_copy(const fs::path& copy) {
+  const Run& r = measure_image(copy);
+  REQUIRE(r.j);
+  CHECK((r.exit_code == 0 || r.exit_code == 1));
+  return *r.j;
+}
+
+// "+n" or "-n": elements from a reference.
+std::string signed_steps(int d) { return (d >= 0 ? "+" : "") + std::to_string(d); }
+
 // The copy names its largest element found as the original would: the
 // same element, or (when the copy finds a different one: dev_03 askew by
 // 12 deg loses G4E2) the index its period says, 2^(1/6) per index from
@@ -140,18 +151,16 @@ TEST_CASE("real chart captures saved as JPEG read as the originals") {
   int compared = 0, identified = 0;
   for (const std::string file : kLabelled) {
     const json& original = anchored_original(file);
-    const Run& r = measure_image(as_jpeg(kRealdata / file));
     CAPTURE(file);
-    REQUIRE(r.j);
-    CHECK((r.exit_code == 0 || r.exit_code == 1));
-    if (!absolute(*r.j)) continue;
+    const json& copy = measured_copy(as_jpeg(kRealdata / file));
+    if (!absolute(copy)) continue;
     ++identified;
-    const json &got = (*r.j)["chart"]["largest_element"], &was = original["chart"]["largest_element"];
+    const json &got = copy["chart"]["largest_element"], &was = original["chart"]["largest_element"];
     CHECK(got["group"] == was["group"]);
     CHECK(got["element"] == was["element"]);
     for (const std::string o : {"horizontal_bars", "vertical_bars"}) {
       CAPTURE(o);
-      const json &l = (*r.j)["limits"][o], &l0 = original["limits"][o];
+      const json &l = copy["limits"][o], &l0 = original["limits"][o];
       CHECK(l["resolved_any"] == l0["resolved_any"]);
       if (l0["resolved_any"] != true || l["resolved_any"] != true) continue;
       ++compared;
@@ -205,26 +214,23 @@ TEST_CASE("real chart captures set down askew are never identified differently")
     const json& original = anchored_original(file);
     const json& im = by_orig.at(file);
     for (const double angle_deg : {5.0, -8.0, 12.0}) {
-      const Run& r = measure_image(turned_by(kRealdata / file, angle_deg));
       CAPTURE(file);
       CAPTURE(angle_deg);
-      REQUIRE(r.j);
-      CHECK((r.exit_code == 0 || r.exit_code == 1));
+      const json& copy = measured_copy(turned_by(kRealdata / file, angle_deg));
       ++tried;
       table += "  " + file + " turned " + std::to_string(int(angle_deg)) + " deg:";
       for (const char* o : {"horizontal_bars", "vertical_bars"}) {
         if (im[o].is_null()) continue;
         ++readings_n;
-        const std::optional<int> d = limit_from_reading(*r.j, im, o);
+        const std::optional<int> d = limit_from_reading(copy, im, o);  // none unless absolute
         agreeing += d && std::abs(*d) <= 1;
-        table += std::string(" ") + o[0] + (d ? (*d >= 0 ? " +" : " ") + std::to_string(*d) : std::string(" -"));
+        if (d) CHECK(*d <= 1);
+        table += std::string(" ") + o[0] + " " + (d ? signed_steps(*d) : std::string("-"));
       }
       table += "\n";
-      if (!absolute(*r.j)) continue;
+      if (!absolute(copy)) continue;
       ++identified;
-      check_identified_alike(*r.j, original);
-      for (const char* o : {"horizontal_bars", "vertical_bars"})
-        if (const std::optional<int> d = limit_from_reading(*r.j, im, o)) CHECK(*d <= 1);
+      check_identified_alike(copy, original);
     }
   }
   MESSAGE("set down askew: " << identified << " of " << tried << " identified as the original; " << agreeing << " of "
@@ -270,29 +276,27 @@ TEST_CASE("real chart captures defocused are never identified differently, nor r
   for (const std::string file : kLabelled) {
     const json& original = anchored_original(file);
     for (const int width_px : {7, 13}) {
-      const Run& r = measure_image(defocused(kRealdata / file, width_px));
       CAPTURE(file);
       CAPTURE(width_px);
-      REQUIRE(r.j);
-      CHECK((r.exit_code == 0 || r.exit_code == 1));
+      const json& copy = measured_copy(defocused(kRealdata / file, width_px));
       ++tried;
       table += "  " + file + " blurred " + std::to_string(width_px) + " px:";
-      if (!absolute(*r.j)) {
+      if (!absolute(copy)) {
         table += " relative\n";
         continue;
       }
       ++identified;
-      check_identified_alike(*r.j, original);
+      check_identified_alike(copy, original);
       for (const std::string o : {"horizontal_bars", "vertical_bars"}) {
         CAPTURE(o);
-        const json &l = (*r.j)["limits"][o], &l0 = original["limits"][o];
+        const json &l = copy["limits"][o], &l0 = original["limits"][o];
         if (l["resolved_any"] != true) {
           table += " " + o.substr(0, 1) + " none";
           continue;
         }
         ++resolved_any;
         const int d = element_index(l["group"], l["element"]) - element_index(l0["group"], l0["element"]);
-        table += " " + o.substr(0, 1) + (d >= 0 ? " +" : " ") + std::to_string(d);
+        table += " " + o.substr(0, 1) + " " + signed_steps(d);
         CHECK(d <= 1);
       }
       table += "\n";

@@ -233,12 +233,15 @@ namespace {
 constexpr int kPairIndices = 12;
 constexpr double kPairScale = 0.25;
 
+// Where a coarse pattern's point lands nested about centre_px.
+Vec2 nested_point(Vec2 p_px, Vec2 centre_px) { return centre_px + kPairScale * (p_px - centre_px); }
+
 BarPattern nested_pattern(const BarPattern& p, Vec2 centre_px) {
   BarPattern q = p;
-  q.center_px = centre_px + kPairScale * (p.center_px - centre_px);
+  q.center_px = nested_point(p.center_px, centre_px);
   q.period_px *= kPairScale;
   q.bar_length_px *= kPairScale;
-  for (Vec2& b : q.bar_centers_px) b = centre_px + kPairScale * (b - centre_px);
+  for (Vec2& b : q.bar_centers_px) b = nested_point(b, centre_px);
   q.predicted = true;
   q.nested = true;
   return q;
@@ -255,7 +258,7 @@ constexpr double kNestingPlaceErrorPx = 2.5;
 // (the larger of the two distances).
 double nesting_miss_px(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse, Vec2 centre_px) {
   const auto miss = [&](int f, int c) {
-    return norm(centre_px + kPairScale * (D.patterns[c].center_px - centre_px) - D.patterns[f].center_px);
+    return norm(nested_point(D.patterns[c].center_px, centre_px) - D.patterns[f].center_px);
   };
   return std::max(miss(fine.h, coarse.h), miss(fine.v, coarse.v));
 }
@@ -313,10 +316,11 @@ void reindex(std::vector<ChartElement>& E, const std::vector<std::pair<size_t, i
 }
 
 // The elements that nest about one point, each with its index offset;
-// how many moved; and how far, in all, they lie from their nested images
-// about the point they give together.
+// the point they give together; how many moved; and how far, in all, they
+// lie from their nested images about that point.
 struct Nesting {
   std::vector<std::pair<size_t, int>> inliers;
+  Vec2 point_px{0, 0};
   int moves = 0;
   double miss_px = 0;
 };
@@ -363,10 +367,10 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
   const auto nesting_of = [&](std::vector<std::pair<size_t, int>> inliers) {
     Nesting n;
     if (!inliers.empty()) {
-      const Vec2 point_px = mean_centre(inliers);
+      n.point_px = mean_centre(inliers);
       for (const auto& [j, delta] : inliers) {
         n.moves += delta != 0;
-        n.miss_px += nesting_miss_px(D, E[j], E[coarse.at(E[j].relative_index + delta - kPairIndices)], point_px);
+        n.miss_px += nesting_miss_px(D, E[j], E[coarse.at(E[j].relative_index + delta - kPairIndices)], n.point_px);
       }
     }
     n.inliers = std::move(inliers);
@@ -384,13 +388,11 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
           inliers = std::move(again);
       if (Nesting n = nesting_of(std::move(inliers)); better_nesting(n, best)) best = std::move(n);
     }
-  const std::vector<std::pair<size_t, int>>& best_inliers = best.inliers;
-  if (best_inliers.size() < 2) return std::nullopt;
+  if (best.inliers.size() < 2) return std::nullopt;
   // The centre from all that nest; then each fine element takes the index
   // of the nested image it lies on.
-  const Vec2 centre_px = mean_centre(best_inliers);
-  reindex(E, best_inliers);
-  return centre_px;
+  reindex(E, best.inliers);
+  return best.point_px;
 }
 
 // See ChartDetection::predicted_elements.
