@@ -46,7 +46,8 @@ std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_wid
   int bars = 0;
   for (int b = d.fit_begin; b < d.fit_end; ++b) {
     const double u = d.bin_center_mm(b), v = d.value[b];
-    const int p = std::isfinite(v) && d.count[b] > 0 ? plateau_of(d, u, r_mm) : -1;
+    // A clipped bin's mean is only a bound on its level (ProfileData::bound).
+    const int p = std::isfinite(v) && d.count[b] > 0 && d.bound_at(b) == 0 ? plateau_of(d, u, r_mm) : -1;
     if (p == 0) {
       ground_runs += last != 0;
       n += 1, su += u, sv += v, suu += u * u, suv += u * v;
@@ -82,6 +83,56 @@ std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_wid
   return LevelStep{mean - 1, sigma, 0};
 }
 
+namespace {
+
+// Whether every clipped bin of `d` is clipped at black only (none at
+// saturation): the ink reaches zero there, and a fit that takes those bins
+// as bounds (ProfileData::bound) still sees the ground it scales by.
+bool clipped_at_black_only(const ProfileData& d) {
+  bool any = false;
+  for (int b = d.fit_begin; b < d.fit_end; ++b) {
+    const int bound = d.bound_at(b);
+    if (bound > 0) return false;
+    any = any || bound < 0;
+  }
+  return any;
+}
+
+// One coarse pattern's step: fitted with free contrast, else read off its
+// plateaus; nullopt if neither gives one. `from_plateaus` says which.
+std::optional<LevelStep> pattern_level_step(const SampledProfile& p, double px_per_bar, double w_mm,
+                                            const MeasureOptions& mo, bool& from_plateaus) {
+  from_plateaus = false;
+  ProfileFitOptions fo;
+  fo.fit_contrast = true;
+  fo.fit_shape = mo.fit_psf_shape;  // a fixed Gaussian would put a heavy-tailed PSF's low-frequency loss into the level step
+  // The bars free to move within a quarter of a bar, as the element's own
+  // grading fit has them (refine_shift_by_fit): the correlation centring
+  // leaves them a tenth of a bar or so off, and with the shape free that
+  // misplacement reads as heavier tails and a deeper step (the generated
+  // chart's G0E1: beta 1.2-1.7 for its Gaussian, each fit's |c| 1-6 %
+  // deep, the median's 1-3 %, every m 2-5 % low). Where the fit does not
+  // place them, they stay where the centring put them.
+  ProfileFit fit = fit_profile(p.data, with_free_shift(fo, w_mm));
+  const bool placed = shift_placed(fit, w_mm);
+  if (!placed) fit = fit_profile(p.data, fo);
+  if (fitted_step_usable(fit) && !at_bound(fit)) return step_of(fit);
+  // Plateaus a quarter bar inside each shape need wide bars, and the bars
+  // where the fit placed them.
+  const std::optional<LevelStep> plateau =
+      px_per_bar >= 12 ? plateau_level_step(placed ? shifted_ideal(p.data, fit.shift_mm) : p.data, w_mm)
+                       : std::nullopt;
+  if (plateau && plateau->distinct_from_zero(5)) {
+    from_plateaus = true;
+    return plateau;
+  }
+  // At the bound, with no plateaus to check it: a chrome mask's c can be ~-1.
+  if (fitted_step_usable(fit)) return step_of(fit);
+  return std::nullopt;
+}
+
+}  // namespace
+
 // The level step per orientation (what the reference patch is in layout
 // mode): the median of the three coarsest elements that allow it, fitted
 // with free contrast, so that one odd pattern (a mismatch, dust on a bar)
@@ -91,54 +142,50 @@ std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_wid
 // a misfit of chi^2 1e7, which pins the fitted step at its bound), the step
 // is read off the element's own plateaus instead. One orientation missing:
 // the other's stands in (a printed chart has one ink density).
+//
+// A pattern with more than 2 % of its pixels clipped is left out while
+// any other gives a step. Only where none does are those clipped at black
+// alone used, their clipped bins fitted as bounds: dark bars that reach
+// zero, or a resampling's or a sharpening's undershoot at their edges
+// pushing them there (dev_11 resized by 0.8 or 1.25 with a Lanczos
+// filter). Clipped at saturation, the ground itself is unknown. A single
+// pattern and nothing else never is.
 bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& refs,
                        const std::vector<ElementJob>& jobs, const std::vector<std::vector<SampledProfile>>& profiles,
                        const MeasureOptions& mo, ReferenceResult& ref, std::string* note) {
   ref.signature = Signature::albedo;
   std::vector<LevelStep> steps[2];  // [vertical bars]
   std::vector<std::string> from_plateaus;
-  int candidates = 0, clipped = 0;  // coarse patterns in full view, and those of them clipped
+  std::vector<size_t> clipped_dark;  // candidates clipped at black only
+  int candidates = 0, clipped = 0;   // coarse patterns in full view, and those of them clipped
+  const auto add_step = [&](size_t i) {
+    const ElementResult& e = jobs[i].element;
+    bool plateaus = false;
+    const std::optional<LevelStep> step =
+        pattern_level_step(profiles[i].front(), e.px_per_bar, refs[i].bar_width_mm(), mo, plateaus);
+    if (!step) return;
+    steps[e.orientation == BarOrientation::vertical_bars].push_back(*step);
+    if (plateaus) from_plateaus.push_back(fmt::format("G{}E{} {}", e.group, e.element, to_string(e.orientation)));
+  };
   for (size_t i = 0; i < jobs.size(); ++i) {
     const ElementResult& e = jobs[i].element;
-    std::vector<LevelStep>& s = steps[e.orientation == BarOrientation::vertical_bars];
     const SampledProfile& p = profiles[i].front();
-    if (s.size() >= 3 || e.px_per_bar < 3) continue;
+    if (steps[e.orientation == BarOrientation::vertical_bars].size() >= 3 || e.px_per_bar < 3) continue;
     if (D.patterns[refs[i].pattern].predicted || refs[i].lone || !p.in_view) continue;
     ++candidates;
     if (p.pixels_clipped > p.pixels_used / 50) {
       ++clipped;
+      if (clipped_at_black_only(p.data)) clipped_dark.push_back(i);
       continue;
     }
-    ProfileFitOptions fo;
-    fo.fit_contrast = true;
-    fo.fit_shape = mo.fit_psf_shape;  // a fixed Gaussian would put a heavy-tailed PSF's low-frequency loss into the level step
-    // The bars free to move within a quarter of a bar, as the element's own
-    // grading fit has them (refine_shift_by_fit): the correlation centring
-    // leaves them a tenth of a bar or so off, and with the shape free that
-    // misplacement reads as heavier tails and a deeper step (the generated
-    // chart's G0E1: beta 1.2-1.7 for its Gaussian, each fit's |c| 1-6 %
-    // deep, the median's 1-3 %, every m 2-5 % low). Where the fit does not
-    // place them, they stay where the centring put them.
-    const double w_mm = refs[i].bar_width_mm();
-    ProfileFit fit = fit_profile(p.data, with_free_shift(fo, w_mm));
-    const bool placed = shift_placed(fit, w_mm);
-    if (!placed) fit = fit_profile(p.data, fo);
-    if (fitted_step_usable(fit) && !at_bound(fit)) {
-      s.push_back(step_of(fit));
-      continue;
-    }
-    // Plateaus a quarter bar inside each shape need wide bars, and the bars
-    // where the fit placed them.
-    const std::optional<LevelStep> plateau =
-        e.px_per_bar >= 12 ? plateau_level_step(placed ? shifted_ideal(p.data, fit.shift_mm) : p.data, w_mm)
-                           : std::nullopt;
-    if (plateau && plateau->distinct_from_zero(5)) {
-      s.push_back(*plateau);
-      from_plateaus.push_back(fmt::format("G{}E{} {}", e.group, e.element, to_string(e.orientation)));
-    } else if (fitted_step_usable(fit)) {
-      s.push_back(step_of(fit));  // at the bound, with no plateaus to check it: a chrome mask's c can be ~-1
-    }
+    add_step(i);
   }
+  // Not for a single pattern: three strokes of a graphic drawn in clipped
+  // black look like one (chart_measure.cpp).
+  const bool from_clipped = steps[0].empty() && steps[1].empty() && !clipped_dark.empty() && !D.single_pattern;
+  if (from_clipped)
+    for (const size_t i : clipped_dark)
+      if (steps[jobs[i].element.orientation == BarOrientation::vertical_bars].size() < 3) add_step(i);
   for (int vertical = 0; vertical < 2; ++vertical) {
     std::vector<LevelStep>& s = steps[vertical];
     if (s.empty()) continue;
@@ -169,13 +216,18 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
   if (!have_h) ref.horizontal_bars = {ref.vertical_bars.contrast, ref.vertical_bars.contrast_sigma, 0};
   if (!have_v) ref.vertical_bars = {ref.horizontal_bars.contrast, ref.horizontal_bars.contrast_sigma, 0};
   ref.usable = true;
+  if (note && from_clipped)
+    *note = fmt::format("the level step was fitted on coarse patterns with more than 2 % of their pixels clipped at "
+                        "black ({} of the {} in full view; none unclipped gave one), their clipped bins taken as "
+                        "bounds: lift black or export without sharpening for a step measured throughout",
+                        clipped_dark.size(), candidates);
   if (note && !from_plateaus.empty()) {
     std::string which;
     for (const std::string& w : from_plateaus) which += (which.empty() ? "" : ", ") + w;
-    *note = fmt::format(
-        "the level step was read off the plateaus of {} (the profile model does not fit those bars' edges within "
+    *note += fmt::format(
+        "{}the level step was read off the plateaus of {} (the profile model does not fit those bars' edges within "
         "their noise); check that their middles are flat",
-        which);
+        note->empty() ? "" : "; ", which);
   }
   return true;
 }

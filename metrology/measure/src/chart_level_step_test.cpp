@@ -109,6 +109,72 @@ TEST_CASE("chart level step: coarse patterns that all clip are refused, and the 
   CHECK(ref.horizontal_bars.contrast == doctest::Approx(-0.9).epsilon(0.05));
 }
 
+// three_bars(-0.95, ...) with each bar's edges undershooting by 0.12 of
+// the ground over a quarter bar inside (a resampling filter's or a sharpening's ringing)
+// and the bins that fall below zero clipped there: at 0, a bound
+// (ProfileData::bound -1, the true level at most that). With `saturate`,
+// the ground beside the triplet is clipped at 0.9 too (bound +1).
+ProfileData ringing_clipped_bars(unsigned seed, bool saturate) {
+  ProfileData d = three_bars(-0.95, 1.0, 0.1, 0.002, seed);
+  d.bound.assign(d.bin_count, 0);
+  for (int b = 0; b < d.bin_count; ++b) {
+    const double u = d.bin_center_mm(b);
+    for (int k = -1; k <= 1; ++k)
+      for (const double edge : {(2 * k - 0.5), (2 * k + 0.5)}) {
+        const double inside = std::abs(u - edge) < 0.25 && std::abs(u - 2 * k) < 0.5;
+        if (inside) d.value[b] -= 0.12;
+      }
+    if (d.value[b] <= 0) d.value[b] = 0, d.bound[b] = -1;
+    if (saturate && std::abs(u) > 3 && d.value[b] > 0.9) d.value[b] = 0.9, d.bound[b] = 1;
+  }
+  return d;
+}
+
+TEST_CASE("chart level step: where every coarse pattern clips at black only, the clipped bins are fitted as bounds") {
+  CoarsePatterns c = coarse_patterns(2, -1, 0.5, [](int k) { return ringing_clipped_bars(30 + k, false); });
+  for (auto& p : c.profiles) {
+    int bound = 0;
+    for (const signed char b : p.front().data.bound) bound += b != 0;
+    REQUIRE(bound > 0);
+    p.front().pixels_clipped = 300;  // more than 2 % of its 1000
+  }
+  ReferenceResult ref;
+  std::string note;
+  REQUIRE(chart::chart_level_steps(c.D, c.refs, c.jobs, c.profiles, MeasureOptions{}, ref, &note));
+  CHECK(ref.horizontal_bars.contrast == doctest::Approx(-0.95).epsilon(0.04));
+  CHECK(note.find("clipped at black") != std::string::npos);
+  // Never for a lone pattern: three strokes drawn in clipped black look like one.
+  c.D.single_pattern = true;
+  CHECK_FALSE(chart::chart_level_steps(c.D, c.refs, c.jobs, c.profiles, MeasureOptions{}, ref, &note));
+  c.D.single_pattern = false;
+  // One unclipped pattern is preferred: the clipped ones are left out.
+  CoarsePatterns mixed = coarse_patterns(3, -1, 0.5, [](int k) {
+    return k == 2 ? three_bars(-0.90, 1.0, 0.1, 0.002, 7) : ringing_clipped_bars(30 + k, false);
+  });
+  for (int k = 0; k < 2; ++k) mixed.profiles[k].front().pixels_clipped = 300;
+  note.clear();
+  REQUIRE(chart::chart_level_steps(mixed.D, mixed.refs, mixed.jobs, mixed.profiles, MeasureOptions{}, ref, &note));
+  CHECK(ref.horizontal_bars.contrast == doctest::Approx(-0.90).epsilon(0.01));
+  CHECK(note.find("clipped at black") == std::string::npos);
+  // Clipped at saturation as well, the ground is unknown: refused.
+  CoarsePatterns bright = coarse_patterns(2, -1, 0.5, [](int k) { return ringing_clipped_bars(30 + k, true); });
+  for (auto& p : bright.profiles) p.front().pixels_clipped = 300;
+  CHECK_FALSE(chart::chart_level_steps(bright.D, bright.refs, bright.jobs, bright.profiles, MeasureOptions{}, ref, &note));
+  CHECK(note.find("clipped") != std::string::npos);
+}
+
+TEST_CASE("chart level step: a clipped bin is no plateau") {
+  // One bar's ink bins clipped, reading 0.5 (only a bound): the step comes
+  // from the other two bars, as if that bar were not there.
+  ProfileData d = three_bars(-0.8, 1.0, 0.1, 0.002, 3);
+  d.bound.assign(d.bin_count, 0);
+  for (int b = 0; b < d.bin_count; ++b)
+    if (std::abs(d.bin_center_mm(b) + 2) < 0.4) d.value[b] = 0.5, d.bound[b] = -1;
+  const auto s = chart::plateau_level_step(d, 1.0);
+  REQUIRE(s);
+  CHECK(s->contrast == doctest::Approx(-0.8).epsilon(0.01));
+}
+
 TEST_CASE("chart level step: bars 0.07 of a bar off their placement still give the true step") {
   // The correlation centring leaves a pattern a tenth of a bar or so off;
   // with the PSF shape free, a fit that holds the bars where they were

@@ -111,9 +111,7 @@ void decide_chart(const ChartDetection& D, const MeasureOptions& mo, Measurement
   // still shows the coarsest element found as unresolved.
   if (!M.horizontal.any_resolved && !M.vertical.any_resolved) {
     M.usable = false;
-    M.problem =
-        "nothing on the chart is resolved: even the coarsest element found is below the criterion; bring the "
-        "chart into focus or frame coarser groups";
+    M.problem = unresolved_chart_problem(M.elements);
   }
 }
 

@@ -511,4 +511,19 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
   }
 }
 
+std::string unresolved_chart_problem(const std::vector<ElementResult>& elements) {
+  int fitted = 0, clipped = 0;
+  for (const ElementResult& e : elements) {
+    fitted += e.status == ElementStatus::ok;
+    clipped += e.status == ElementStatus::clipped;
+  }
+  if (fitted == 0 && clipped > 0)
+    return fmt::format("no element on the chart could be measured: {} of the {} patterns have too many pixels "
+                       "clipped (black or saturated) to pin m down, and no other was fitted; expose so that "
+                       "neither the bars nor the ground clip, or lift black",
+                       clipped, elements.size());
+  return "nothing on the chart is resolved: even the coarsest element found is below the criterion; bring the "
+         "chart into focus or frame coarser groups";
+}
+
 }  // namespace tactres

@@ -478,3 +478,17 @@ TEST_CASE("the LSF shape on its bound: an ok element says m holds for the bounde
   REQUIRE(gaussian.status == ElementStatus::ok);
   CHECK(gaussian.note.find("bound") == std::string::npos);
 }
+
+TEST_CASE("nothing resolved: the problem names the clipping where no element was fitted, else the focus") {
+  Measurement M = row_of({0.02, 0.01});
+  for (ElementResult& e : M.elements) e.status = ElementStatus::clipped;
+  const std::string clipped = unresolved_chart_problem(M.elements);
+  CHECK(clipped.find("no element on the chart could be measured") != std::string::npos);
+  CHECK(clipped.find("2 of the 2 patterns") != std::string::npos);
+  CHECK(clipped.find("clip") != std::string::npos);
+  // One element fitted and unresolved: the chart was measured, and is blurred.
+  M.elements[0].status = ElementStatus::ok;
+  const std::string blurred = unresolved_chart_problem(M.elements);
+  CHECK(blurred.find("nothing on the chart is resolved") != std::string::npos);
+  CHECK(blurred.find("focus") != std::string::npos);
+}

@@ -62,6 +62,7 @@
 //   a bad profile: every failure is a status.
 
 #include <functional>
+#include <string>
 #include <utility>
 
 #include "tactres/measure/measurement.h"
@@ -107,5 +108,11 @@ bool is_unmeasured(const ElementResult& r, bool chart_photograph);
 void grade_damaged(Measurement& M, const Criterion& criterion);
 void decide_limits(Measurement& M, const Criterion& criterion, const DetectabilityCriterion& detectability,
                    bool chart_photograph);
+
+// Why a chart photograph in which nothing is resolved cannot be measured
+// (Measurement::problem): where no element was fitted at all and some are
+// `clipped`, the clipping; otherwise that even the coarsest element found
+// is below the criterion.
+std::string unresolved_chart_problem(const std::vector<ElementResult>& elements);
 
 }  // namespace tactres
