@@ -229,14 +229,21 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     // clipping distorted beyond the model (a resampled photograph's
     // overshoot at the clip level): such an element stays `clipped`, as
     // it was before clipped bins were fitted as bounds.
-    // A clipped one whose three bars show anyway is read from its dips.
-    if (!clipped) {
+    // On a chart photograph, one whose three bars show anyway (both gaps
+    // dip where the layout puts them) is read from its dips, clipped or
+    // not: the bars are where the geometry puts them, so this is no alias
+    // but a profile the model misses (dev_14 resized by 1.25: G7E1 V at
+    // 1.9 px per bar, its gaps at 0.2 of the ground and its bars at 0.02,
+    // fitted at reduced chi^2 291).
+    if (read_gap_dips &&
+        grade_from_dips(r, sp, data, fit, fo, contrast_sigma,
+                        fmt::format("the model misses the data (reduced chi^2 {:.3g})", fit.chi2_reduced))) {
+      // graded ok from its dips
+    } else if (!clipped) {
       r.status = ElementStatus::aliased;
       r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
                            r.px_per_bar, fit.chi2_reduced);
-    } else if (!read_gap_dips ||
-               !grade_from_dips(r, sp, data, fit, fo, contrast_sigma,
-                                fmt::format("the model misses the data (reduced chi^2 {:.3g})", fit.chi2_reduced))) {
+    } else {
       r.status = ElementStatus::clipped;
       r.note = clipped_note(sp, fmt::format("; the fit with them as bounds misses the data (reduced chi^2 {:.3g}, "
                                             "misfit as large as the bars' signal)",
@@ -254,9 +261,16 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     // along the bars; the patch's own step stands 5 sigma out, so it alone
     // never exceeds the limit) leaves m as the fit found it, with the
     // step's error in m_sigma, where the criterion (m - 2 sigma > 0) weighs it.
-    r.status = ElementStatus::low_signal;
-    r.m_undetermined = true;
-    r.note = fmt::format("m_sigma {:.3g} > {:.3g}: the fit cannot pin m down", fit_sigma, options.max_m_sigma);
+    // A chart photograph's element whose fit is widened so by its misfit
+    // (sqrt of the reduced chi^2) while both its gaps dip is read from
+    // its dips, as a misfit is above.
+    const std::string why = fmt::format("m_sigma {:.3g} > {:.3g}: the fit cannot pin m down", fit_sigma,
+                                        options.max_m_sigma);
+    if (!read_gap_dips || !grade_from_dips(r, sp, data, fit, fo, contrast_sigma, why)) {
+      r.status = ElementStatus::low_signal;
+      r.m_undetermined = true;
+      r.note = why;
+    }
   } else {
     r.status = ElementStatus::ok;
     r.m = m;

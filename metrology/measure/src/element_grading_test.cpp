@@ -492,3 +492,51 @@ TEST_CASE("nothing resolved: the problem names the clipping where no element was
   CHECK(blurred.find("nothing on the chart is resolved") != std::string::npos);
   CHECK(blurred.find("focus") != std::string::npos);
 }
+
+TEST_CASE("misfit: a triplet the model misses whose gaps dip is read from its dips unclipped too, chart photographs only") {
+  // halo_triplet's sharp bars between gaps far under the ground, nothing
+  // clipped: no blur of the model makes that profile.
+  SampledProfile sp = halo_triplet(1.0);
+  sp.data.bound.clear();
+  sp.pixels_clipped = 0;
+  const ElementResult layout_mode = graded(sp, 2.5);
+  INFO(layout_mode.note);
+  CHECK(layout_mode.status == ElementStatus::aliased);
+  const ElementResult r = graded(sp, 2.5, true);
+  INFO(r.note);
+  REQUIRE(r.status == ElementStatus::ok);
+  CHECK(r.m_from_dips);
+  CHECK(r.note.find("the model misses the data") != std::string::npos);
+  const double m_ground = std::numbers::pi / 4 * 0.10 / (0.8 * 0.9);
+  CHECK(r.m <= m_ground + 1e-9);
+  CHECK(r.m > 0.8 * m_ground);
+  // Bars at another period than the layout's show no dips where the
+  // layout puts the gaps: still no bars of the layout's.
+  const SampledProfile other = clipped_triplet(0.95, 0.6, 0.6);
+  REQUIRE(other.pixels_clipped == 0);
+  const ElementResult o = graded(other, 2.5, true);
+  INFO(o.note);
+  CHECK(o.status != ElementStatus::ok);
+  CHECK_FALSE(o.m_from_dips);
+}
+
+TEST_CASE("misfit: a fit widened past max_m_sigma whose gaps dip is read from its dips, chart photographs only") {
+  // The same profile filled in every fourth bin only (a strip along the
+  // pixel grid fills one bin a pixel: dev_14 resized by 1.25, G7E1 H, 16
+  // bins), at 3.5 px per bar (past the aliasing test): the misfit widens
+  // m_sigma beyond 0.25.
+  SampledProfile sp = halo_triplet(1.0);
+  sp.data.bound.clear();
+  sp.pixels_clipped = 0;
+  for (int b = 0; b < sp.data.bin_count; ++b)
+    if (b % 4) sp.data.count[b] = 0, sp.data.value[b] = std::nan("");
+  const ElementResult layout_mode = graded(sp, 3.5);
+  INFO(layout_mode.note);
+  CHECK(layout_mode.status == ElementStatus::low_signal);
+  const ElementResult r = graded(sp, 3.5, true);
+  INFO(r.note);
+  REQUIRE(r.status == ElementStatus::ok);
+  CHECK(r.m_from_dips);
+  CHECK(r.note.find("the fit cannot pin m down, but both gaps dip") != std::string::npos);
+  CHECK(r.m - 2 * r.m_sigma > 0);
+}
