@@ -153,3 +153,27 @@ TEST_CASE("placement_replaces: the better fit, and a fit's own m over a model-fr
   CHECK(placement_replaces(dips, clipped));
   CHECK_FALSE(placement_replaces(clipped, dips));
 }
+
+TEST_CASE("placement_replaces: between two fits, the one whose gaps read clearly deeper is on the bars") {
+  auto fitted = [](double chi2, double m, double dips_m, double dips_m_sigma) {
+    ElementResult r = ElementResult::of(6, 6, BarOrientation::horizontal_bars, 114.0, 1.7);
+    r.status = ElementStatus::ok;
+    r.chi2_reduced = chi2;
+    r.m = m;
+    r.dips_m = dips_m;
+    r.dips_m_sigma = dips_m_sigma;
+    return r;
+  };
+  // dev_14 turned by 12 degrees, G6E6 H: beside its bars m 0.00 at chi^2
+  // 178, the gaps 0.06 +- 0.02; on them m 0.45 at 395, the gaps 0.47 +- 0.07.
+  const ElementResult beside = fitted(178, 0.0, 0.064, 0.019), on = fitted(395, 0.45, 0.471, 0.071);
+  CHECK(placement_replaces(on, beside));
+  CHECK_FALSE(placement_replaces(beside, on));
+  // Readings within 3 combined sigma of each other do not tell: chi^2 does.
+  const ElementResult near = fitted(395, 0.45, 0.15, 0.071);
+  CHECK_FALSE(placement_replaces(near, beside));
+  CHECK(placement_replaces(beside, near));
+  // Without a reading at one of them (no dips there), chi^2 as well.
+  const ElementResult unread = fitted(395, 0.45, 0.0, 0.0);
+  CHECK_FALSE(placement_replaces(unread, beside));
+}

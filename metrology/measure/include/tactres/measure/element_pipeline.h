@@ -80,7 +80,9 @@ struct GradingContext {
 // rank it finely against a fit that did: an ok fit wins over it unless its
 // chi^2 is over 4 times the model-free placement's and its m below the
 // model-free m (the fit then sits off the bars), and it wins over any
-// other grade.
+// other grade. Between two fits whose gaps both have a model-free reading
+// (ElementResult::dips_m), one reading more than 3 combined sigma above
+// the other's wins whatever the chi^2: it is on the bars.
 bool placement_replaces(const ElementResult& alt, const ElementResult& r);
 
 // Grades every job from its sampled placements (sample_jobs) into
