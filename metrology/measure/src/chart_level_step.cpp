@@ -85,15 +85,19 @@ std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_wid
 
 namespace {
 
-// Whether every clipped bin of `d` is clipped at black only (none at
-// saturation): the ink reaches zero there, and a fit that takes those bins
-// as bounds (ProfileData::bound) still sees the ground it scales by.
+// Whether every clipped bin of `d` is clipped at black, and on the dark
+// side of the ideal (ideal 1: the ink, or a negative chart's chrome, the
+// ideal being complemented there): the dark side reaches zero, and a fit
+// that takes those bins as bounds (ProfileData::bound) still sees the
+// light level it scales by. A bin clipped at saturation, or at black on
+// the light side, leaves that level unknown.
 bool clipped_at_black_only(const ProfileData& d) {
   bool any = false;
   for (int b = d.fit_begin; b < d.fit_end; ++b) {
     const int bound = d.bound_at(b);
-    if (bound > 0) return false;
-    any = any || bound < 0;
+    if (bound == 0) continue;
+    if (bound > 0 || d.ideal_at(d.bin_center_mm(b)) < 0.5) return false;
+    any = true;
   }
   return any;
 }
@@ -163,9 +167,10 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
     bool plateaus = false;
     const std::optional<LevelStep> step =
         pattern_level_step(profiles[i].front(), e.px_per_bar, refs[i].bar_width_mm(), mo, plateaus);
-    if (!step) return;
+    if (!step) return false;
     steps[e.orientation == BarOrientation::vertical_bars].push_back(*step);
     if (plateaus) from_plateaus.push_back(fmt::format("G{}E{} {}", e.group, e.element, to_string(e.orientation)));
+    return true;
   };
   for (size_t i = 0; i < jobs.size(); ++i) {
     const ElementResult& e = jobs[i].element;
@@ -183,9 +188,10 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
   // Not for a single pattern: three strokes of a graphic drawn in clipped
   // black look like one (chart_measure.cpp).
   const bool from_clipped = steps[0].empty() && steps[1].empty() && !clipped_dark.empty() && !D.single_pattern;
+  int clipped_steps = 0;  // the clipped patterns that gave a step
   if (from_clipped)
     for (const size_t i : clipped_dark)
-      if (steps[jobs[i].element.orientation == BarOrientation::vertical_bars].size() < 3) add_step(i);
+      if (steps[jobs[i].element.orientation == BarOrientation::vertical_bars].size() < 3) clipped_steps += add_step(i);
   for (int vertical = 0; vertical < 2; ++vertical) {
     std::vector<LevelStep>& s = steps[vertical];
     if (s.empty()) continue;
@@ -216,11 +222,11 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
   if (!have_h) ref.horizontal_bars = {ref.vertical_bars.contrast, ref.vertical_bars.contrast_sigma, 0};
   if (!have_v) ref.vertical_bars = {ref.horizontal_bars.contrast, ref.horizontal_bars.contrast_sigma, 0};
   ref.usable = true;
-  if (note && from_clipped)
+  if (note && clipped_steps > 0)
     *note = fmt::format("the level step was fitted on coarse patterns with more than 2 % of their pixels clipped at "
                         "black ({} of the {} in full view; none unclipped gave one), their clipped bins taken as "
                         "bounds: lift black or export without sharpening for a step measured throughout",
-                        clipped_dark.size(), candidates);
+                        clipped_steps, candidates);
   if (note && !from_plateaus.empty()) {
     std::string which;
     for (const std::string& w : from_plateaus) which += (which.empty() ? "" : ", ") + w;

@@ -159,8 +159,21 @@ TEST_CASE("chart level step: where every coarse pattern clips at black only, the
   // Clipped at saturation as well, the ground is unknown: refused.
   CoarsePatterns bright = coarse_patterns(2, -1, 0.5, [](int k) { return ringing_clipped_bars(30 + k, true); });
   for (auto& p : bright.profiles) p.front().pixels_clipped = 300;
+  note.clear();
   CHECK_FALSE(chart::chart_level_steps(bright.D, bright.refs, bright.jobs, bright.profiles, MeasureOptions{}, ref, &note));
   CHECK(note.find("clipped") != std::string::npos);
+  // Clipped at black on the light side (the ground between the bars at
+  // zero), the light level is unknown too: refused.
+  CoarsePatterns dark_ground = coarse_patterns(2, -1, 0.5, [](int k) {
+    ProfileData d = three_bars(-0.95, 1.0, 0.1, 0.002, 30 + k);
+    d.bound.assign(d.bin_count, 0);
+    for (int b = 0; b < d.bin_count; ++b)
+      if (d.ideal_at(d.bin_center_mm(b)) == 0 && std::abs(d.bin_center_mm(b)) < 2) d.value[b] = 0, d.bound[b] = -1;
+    return d;
+  });
+  for (auto& p : dark_ground.profiles) p.front().pixels_clipped = 300;
+  CHECK_FALSE(chart::chart_level_steps(dark_ground.D, dark_ground.refs, dark_ground.jobs, dark_ground.profiles,
+                                       MeasureOptions{}, ref, &note));
 }
 
 TEST_CASE("chart level step: a clipped bin is no plateau") {

@@ -175,6 +175,42 @@ void note_shape_bound(ElementResult& r, const ProfileFit& fit) {
                         std::clamp(r.m + dm, 0.0, 1.0), dm, r.m_sigma);
 }
 
+// An element whose fit misses its data as much as the bars' own signal,
+// at under 3 px per bar (grade_fit's aliasing test): the bars are not
+// where the geometry puts them at this sampling, the image shows another
+// period or bar count. Both tests must agree: the misfit exceeds the
+// noise, and it is comparable to the bars' own fitted signal (as if m were
+// at least 0.05), for both signatures alike (a relief's slope signal is
+// not the level step times m). A noise-free capture's small model error
+// passes the first test alone.
+// - With clipped bins the misfit cannot tell aliasing from a profile the
+//   clipping distorted beyond the model (a resampled photograph's
+//   overshoot at the clip level): such an element stays `clipped`, as it
+//   was before clipped bins were fitted as bounds.
+// - On a chart photograph, one whose three bars show anyway (both gaps dip
+//   where the layout puts them) is read from its dips, clipped or not: the
+//   bars are where the geometry puts them, so this is no alias but a
+//   profile the model misses (dev_14 resized by 1.25: G7E1 V at 1.9 px per
+//   bar, its gaps at 0.2 of the ground and its bars at 0.02, fitted at
+//   reduced chi^2 291).
+void grade_misfit(ElementResult& r, const SampledProfile& sp, const ProfileData& data, const ProfileFit& fit,
+                  const ProfileFitOptions& fo, double contrast_sigma, bool read_gap_dips, bool clipped) {
+  if (read_gap_dips &&
+      grade_from_dips(r, sp, data, fit, fo, contrast_sigma,
+                      fmt::format("the model misses the data (reduced chi^2 {:.3g})", fit.chi2_reduced)))
+    return;
+  if (!clipped) {
+    r.status = ElementStatus::aliased;
+    r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
+                         r.px_per_bar, fit.chi2_reduced);
+    return;
+  }
+  r.status = ElementStatus::clipped;
+  r.note = clipped_note(sp, fmt::format("; the fit with them as bounds misses the data (reduced chi^2 {:.3g}, "
+                                        "misfit as large as the bars' signal)",
+                                        fit.chi2_reduced));
+}
+
 // Fits `data` (the strip's profile, prepared) and grades r by the fit:
 // grade_element's contract from the fit on.
 void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& data, const ProfileFitOptions& fo,
@@ -219,36 +255,7 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     r.note = "the fit gives no finite m or m_sigma here";
   } else if (!model_mismatch && fit.chi2_reduced > options.aliasing_chi2 && r.px_per_bar < 3.0 &&
              fit.residual_rms > kAliasingMisfitShare * fit.signal_rms * std::max(1.0, 0.05 / std::max(m, 1e-9))) {
-    // The bars are not where the geometry puts them at this sampling: the
-    // image shows another period or bar count. Both tests must agree: the
-    // misfit exceeds the noise, and it is comparable to the bars' own
-    // fitted signal (as if m were at least 0.05), for both signatures alike
-    // (a relief's slope signal is not the level step times m). A
-    // noise-free capture's small model error passes the first test alone.
-    // With clipped bins the misfit cannot tell aliasing from a profile the
-    // clipping distorted beyond the model (a resampled photograph's
-    // overshoot at the clip level): such an element stays `clipped`, as
-    // it was before clipped bins were fitted as bounds.
-    // On a chart photograph, one whose three bars show anyway (both gaps
-    // dip where the layout puts them) is read from its dips, clipped or
-    // not: the bars are where the geometry puts them, so this is no alias
-    // but a profile the model misses (dev_14 resized by 1.25: G7E1 V at
-    // 1.9 px per bar, its gaps at 0.2 of the ground and its bars at 0.02,
-    // fitted at reduced chi^2 291).
-    if (read_gap_dips &&
-        grade_from_dips(r, sp, data, fit, fo, contrast_sigma,
-                        fmt::format("the model misses the data (reduced chi^2 {:.3g})", fit.chi2_reduced))) {
-      // graded ok from its dips
-    } else if (!clipped) {
-      r.status = ElementStatus::aliased;
-      r.note = fmt::format("the data do not show the layout's bars at {:.2f} px per bar (reduced chi^2 {:.3g})",
-                           r.px_per_bar, fit.chi2_reduced);
-    } else {
-      r.status = ElementStatus::clipped;
-      r.note = clipped_note(sp, fmt::format("; the fit with them as bounds misses the data (reduced chi^2 {:.3g}, "
-                                            "misfit as large as the bars' signal)",
-                                            fit.chi2_reduced));
-    }
+    grade_misfit(r, sp, data, fit, fo, contrast_sigma, read_gap_dips, clipped);
   } else if (m < 1e-4 && m_sigma < 1e-4) {
     // The fit sits on its bound (no modulation left): there the covariance
     // collapses, and "m = 0 +- 1e-6" would claim a certainty the data do
@@ -261,9 +268,10 @@ void grade_fit(ElementResult& r, const SampledProfile& sp, const ProfileData& da
     // along the bars; the patch's own step stands 5 sigma out, so it alone
     // never exceeds the limit) leaves m as the fit found it, with the
     // step's error in m_sigma, where the criterion (m - 2 sigma > 0) weighs it.
-    // A chart photograph's element whose fit is widened so by its misfit
-    // (sqrt of the reduced chi^2) while both its gaps dip is read from
-    // its dips, as a misfit is above.
+    // On a chart photograph an element whose fit cannot pin m down while
+    // both its gaps dip clearly is read from its dips, as a misfit is
+    // (grade_misfit): its bars show. (Its m is then measured, so an
+    // unresolved one ends the chain where a low_signal one was bridged.)
     const std::string why = fmt::format("m_sigma {:.3g} > {:.3g}: the fit cannot pin m down", fit_sigma,
                                         options.max_m_sigma);
     if (!read_gap_dips || !grade_from_dips(r, sp, data, fit, fo, contrast_sigma, why)) {
@@ -526,16 +534,17 @@ void decide_limits(Measurement& M, const Criterion& criterion, const Detectabili
 }
 
 std::string unresolved_chart_problem(const std::vector<ElementResult>& elements) {
-  int fitted = 0, clipped = 0;
+  int in_view = 0, fitted = 0, clipped = 0;
   for (const ElementResult& e : elements) {
+    in_view += e.status != ElementStatus::out_of_view;
     fitted += e.status == ElementStatus::ok;
     clipped += e.status == ElementStatus::clipped;
   }
   if (fitted == 0 && clipped > 0)
-    return fmt::format("no element on the chart could be measured: {} of the {} patterns have too many pixels "
-                       "clipped (black or saturated) to pin m down, and no other was fitted; expose so that "
+    return fmt::format("no element on the chart could be measured: {} of the {} elements in view have too many "
+                       "pixels clipped (black or saturated) to pin m down, and none was measured; expose so that "
                        "neither the bars nor the ground clip, or lift black",
-                       clipped, elements.size());
+                       clipped, in_view);
   return "nothing on the chart is resolved: even the coarsest element found is below the criterion; bring the "
          "chart into focus or frame coarser groups";
 }

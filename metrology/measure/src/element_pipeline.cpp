@@ -98,7 +98,9 @@ bool placement_replaces(const ElementResult& alt, const ElementResult& r) {
   // degrees: G6E6 H placed beside its bars fitted m 0.00 at chi^2 178,
   // its gaps reading 0.06 +- 0.02; centred on them, m 0.45 at chi^2 395,
   // its gaps 0.47 +- 0.07).
-  if (alt.dips_m_sigma > 0 && r.dips_m_sigma > 0) {
+  // (Not transitive with the chi^2 order: grade_jobs keeps the first
+  // placement against each other in turn, and jobs have two or three.)
+  if (!alt.m_from_dips && !r.m_from_dips && alt.dips_m_sigma > 0 && r.dips_m_sigma > 0) {
     const double apart = (alt.dips_m - r.dips_m) / std::hypot(alt.dips_m_sigma, r.dips_m_sigma);
     if (std::abs(apart) > kDipsApartSigmas) return apart > 0;
   }

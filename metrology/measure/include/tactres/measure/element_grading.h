@@ -35,8 +35,9 @@
 //     ok                    m and m_sigma (>= 1e-6) are set; r.note says so
 //                           when the reduced chi^2 exceeds poor_fit_chi2,
 //                           and when more than 2 % of the pixels are clipped;
-//                           with read_gap_dips also a clipped element read
-//                           from its dips (below).
+//                           with read_gap_dips also an element read from its
+//                           dips (below) that would be clipped, aliased or
+//                           low_signal (m_sigma too large) by its fit.
 //   r.beta and r.chi2_reduced are set whenever the fit was usable; m and
 //   m_sigma stay 0 unless the status is ok. r.resolved is not touched
 //   (decide_limits sets it).
@@ -49,8 +50,10 @@
 //   (albedo) whose profile shows one gap flat while the other dips
 //   (profiles/gap_dips.h) gets r.gap_flat and a note; decide_limits never
 //   resolves it. With it, an element that would be `clipped` because the
-//   fit with its clipped bins as bounds cannot measure m is ok when both
-//   its gaps dip over 5 sigma and the ground beside it is not all clipped:
+//   fit with its clipped bins as bounds cannot measure m, `aliased`
+//   because the fit misses the data, or `low_signal` because the fit's
+//   m_sigma is too large, is ok when both its gaps dip over 5 sigma and
+//   the ground beside it is not all clipped:
 //   m is then pi/4 of the shallower dip over the level step, model-free,
 //   with a 15 % type-B term in m_sigma, and r.m_from_dips is set. Every
 //   other ok element whose gaps both dip gets the same model-free reading

@@ -97,9 +97,9 @@ struct ElementResult {
   // does (profiles/gap_dips.h): two bars are seen, not three, so it is
   // never resolved, whatever m reads.
   bool gap_flat = false;
-  // ok, read from its gaps' dips rather than the profile model: clipped,
-  // and the model cannot measure its bars, yet all three show
-  // (element_grading.h).
+  // ok, read from its gaps' dips rather than the profile model: the model
+  // cannot measure its bars (clipped, a misfit, or m_sigma too large), yet
+  // all three show (element_grading.h).
   bool m_from_dips = false;
   // ok, on a chart photograph of printed bars whose gaps both dip: m read
   // model-free from the shallower dip (element_grading.h), beside the fit's
