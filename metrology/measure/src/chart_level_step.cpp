@@ -162,20 +162,23 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
   std::vector<std::string> from_plateaus;
   std::vector<size_t> clipped_dark;  // candidates clipped at black only
   int candidates = 0, clipped = 0;   // coarse patterns in full view, and those of them clipped
+  const auto steps_of = [&](size_t i) -> std::vector<LevelStep>& {
+    return steps[jobs[i].element.orientation == BarOrientation::vertical_bars];
+  };
   const auto add_step = [&](size_t i) {
     const ElementResult& e = jobs[i].element;
     bool plateaus = false;
     const std::optional<LevelStep> step =
         pattern_level_step(profiles[i].front(), e.px_per_bar, refs[i].bar_width_mm(), mo, plateaus);
     if (!step) return false;
-    steps[e.orientation == BarOrientation::vertical_bars].push_back(*step);
+    steps_of(i).push_back(*step);
     if (plateaus) from_plateaus.push_back(fmt::format("G{}E{} {}", e.group, e.element, to_string(e.orientation)));
     return true;
   };
   for (size_t i = 0; i < jobs.size(); ++i) {
     const ElementResult& e = jobs[i].element;
     const SampledProfile& p = profiles[i].front();
-    if (steps[e.orientation == BarOrientation::vertical_bars].size() >= 3 || e.px_per_bar < 3) continue;
+    if (steps_of(i).size() >= 3 || e.px_per_bar < 3) continue;
     if (D.patterns[refs[i].pattern].predicted || refs[i].lone || !p.in_view) continue;
     ++candidates;
     if (p.pixels_clipped > p.pixels_used / 50) {
@@ -191,7 +194,7 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
   int clipped_steps = 0;  // the clipped patterns that gave a step
   if (from_clipped)
     for (const size_t i : clipped_dark)
-      if (steps[jobs[i].element.orientation == BarOrientation::vertical_bars].size() < 3) clipped_steps += add_step(i);
+      if (steps_of(i).size() < 3) clipped_steps += add_step(i);
   for (int vertical = 0; vertical < 2; ++vertical) {
     std::vector<LevelStep>& s = steps[vertical];
     if (s.empty()) continue;
