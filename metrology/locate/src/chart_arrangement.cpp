@@ -256,9 +256,10 @@ BarPattern nested_pattern(const BarPattern& p, Vec2 centre_px) {
 constexpr double kNestingPlaceErrorPx = 2.5;
 // How far `fine`'s patterns lie from where `coarse`'s nest about centre_px
 // (the larger of the two distances).
+// A partial fine element (one pattern found) is held to that one.
 double nesting_miss_px(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse, Vec2 centre_px) {
   const auto miss = [&](int f, int c) {
-    return norm(nested_point(D.patterns[c].center_px, centre_px) - D.patterns[f].center_px);
+    return f < 0 ? 0.0 : norm(nested_point(D.patterns[c].center_px, centre_px) - D.patterns[f].center_px);
   };
   return std::max(miss(fine.h, coarse.h), miss(fine.v, coarse.v));
 }
@@ -268,13 +269,17 @@ bool nests(const ChartDetection& D, const ChartElement& fine, const ChartElement
 }
 
 // The centre that element `fine` and the coarse one give: the mean of what
-// its two patterns give (fine = c + (coarse - c) / 4).
+// its found patterns give (fine = c + (coarse - c) / 4).
 Vec2 centre_from(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse) {
   const auto one = [&](int f, int c) {
     return (1 / (1 - kPairScale)) * (D.patterns[f].center_px - kPairScale * D.patterns[c].center_px);
   };
+  if (fine.h < 0 || fine.v < 0) return fine.h < 0 ? one(fine.v, coarse.v) : one(fine.h, coarse.h);
   return 0.5 * (one(fine.h, coarse.h) + one(fine.v, coarse.v));
 }
+
+// The patterns an element shows (two, or one when partial).
+int patterns_shown(const ChartElement& e) { return (e.h >= 0) + (e.v >= 0); }
 
 // The index offsets a fine element may be off by: a well-sampled one's
 // period is trusted (0 only); a finer one's may be a step off (blur).
@@ -320,30 +325,40 @@ void reindex(std::vector<ChartElement>& E, const std::vector<std::pair<size_t, i
 // lie from their nested images about that point.
 struct Nesting {
   std::vector<std::pair<size_t, int>> inliers;
+  int patterns = 0;  // the inliers' patterns found
   Vec2 point_px{0, 0};
   int moves = 0;
   double miss_px = 0;
 };
 
-// More elements nest; among as many, fewer index moves (the periods are
+// More patterns nest; among as many, fewer index moves (the periods are
 // believed where the places allow it: in dev_04 turned by 20 degrees the
 // inner pair's first two elements nest as found, and as well each moved
 // one index finer, about another point where no group 7 element is); then
 // the closer fit.
 bool better_nesting(const Nesting& a, const Nesting& b) {
-  if (a.inliers.size() != b.inliers.size()) return a.inliers.size() > b.inliers.size();
+  if (a.patterns != b.patterns) return a.patterns > b.patterns;
   if (a.moves != b.moves) return a.moves < b.moves;
   return a.miss_px < b.miss_px;
 }
 
 }  // namespace
 
-std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElement>& E) {
-  std::map<int, size_t> coarse;  // well-sampled elements by index: their indices are trusted
-  for (size_t i = 0; i < E.size(); ++i)
+std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElement>& kept,
+                                const std::vector<ChartElement>& partial) {
+  // The lone patterns only where the complete elements do not nest by
+  // themselves: a lone pattern's place is less sure than an element's
+  // (with dev_05's the point moved, and group 7's placed bars with it).
+  if (!partial.empty())
+    if (std::optional<Vec2> point_px = fit_nesting(D, kept)) return point_px;
+  // The complete elements first, so that an inlier below kept.size() is one of them.
+  std::vector<ChartElement> E = kept;
+  E.insert(E.end(), partial.begin(), partial.end());
+  std::map<int, size_t> coarse;  // well-sampled complete elements by index: their indices are trusted
+  for (size_t i = 0; i < kept.size(); ++i)
     if (E[i].period_px >= kWellSampledPeriodPx) coarse[E[i].relative_index] = i;
   // The elements that nest about a point, and the point they give
-  // together; the point most elements nest about wins.
+  // together; the point most patterns nest about wins.
   const auto inliers_about = [&](Vec2 point_px) {
     std::vector<std::pair<size_t, int>> inliers;
     for (size_t j = 0; j < E.size(); ++j)
@@ -369,6 +384,7 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
     if (!inliers.empty()) {
       n.point_px = mean_centre(inliers);
       for (const auto& [j, delta] : inliers) {
+        n.patterns += patterns_shown(E[j]);
         n.moves += delta != 0;
         n.miss_px += nesting_miss_px(D, E[j], E[coarse.at(E[j].relative_index + delta - kPairIndices)], n.point_px);
       }
@@ -388,10 +404,18 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
           inliers = std::move(again);
       if (Nesting n = nesting_of(std::move(inliers)); better_nesting(n, best)) best = std::move(n);
     }
-  if (best.inliers.size() < 2) return std::nullopt;
-  // The centre from all that nest; then each fine element takes the index
-  // of the nested image it lies on.
-  reindex(E, best.inliers);
+  // Four patterns, as two complete elements show, and one complete element
+  // among them at least.
+  const bool complete_inlier = std::any_of(best.inliers.begin(), best.inliers.end(),
+                                           [&](const auto& in) { return in.first < kept.size(); });
+  if (best.patterns < 4 || !complete_inlier) return std::nullopt;
+  // The centre from all that nest; then each complete fine element takes
+  // the index of the nested image it lies on (a partial one's index is
+  // the series' again once the complete ones are right).
+  std::vector<std::pair<size_t, int>> moves;
+  for (const auto& in : best.inliers)
+    if (in.first < kept.size()) moves.push_back(in);
+  reindex(kept, moves);
   return best.point_px;
 }
 

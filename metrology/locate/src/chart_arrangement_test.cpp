@@ -323,6 +323,64 @@ TEST_CASE("nesting: fine elements that blur put one index off are re-indexed by 
   }
 }
 
+TEST_CASE("nesting: lone patterns of fine elements join one complete element that nests") {
+  View v;
+  v.w_px = 12;
+  // The inner pair shows element 13 whole, indexed 14 (its blurred period
+  // 4 % short, as in dev_05 resized by 0.8), and one triplet each of
+  // elements 12 and 15.
+  std::vector<int> ns = range(0, 11);
+  for (int n : {12, 13, 15}) ns.push_back(n);
+  Built b = build(ns, v);
+  std::vector<ChartElement> kept, partial;
+  for (ChartElement e : b.D.elements) {
+    if (e.relative_index == 12) e.v = -1;
+    if (e.relative_index == 15) e.h = -1;
+    if (e.relative_index == 13) e.relative_index = 14;
+    (e.h < 0 || e.v < 0 ? partial : kept).push_back(e);
+  }
+  // The complete element alone is no evidence: its index stays.
+  {
+    std::vector<ChartElement> E = kept;
+    CHECK_FALSE(fit_nesting(b.D, E));
+    CHECK(E.back().relative_index == 14);
+  }
+  // With the lone patterns, four patterns nest: the point is the chart's,
+  // and the complete element takes its index back.
+  {
+    std::vector<ChartElement> E = kept;
+    const std::optional<Vec2> centre = fit_nesting(b.D, E, partial);
+    REQUIRE(centre);
+    CHECK(E.back().relative_index == 13);
+    const Built all = build(range(0, 23), v);
+    std::vector<ChartElement> every = all.D.elements;
+    const std::optional<Vec2> truth = fit_nesting(all.D, every);
+    REQUIRE(truth);
+    CHECK(norm(*centre - *truth) < 0.5);
+  }
+  // Four lone patterns, with no complete element among them, nest nothing.
+  {
+    std::vector<int> inner = range(0, 11);
+    for (int n : {12, 13, 14, 15}) inner.push_back(n);
+    Built four = build(inner, v);
+    std::vector<ChartElement> E, lone;
+    for (ChartElement e : four.D.elements) {
+      if (e.relative_index >= 12) (e.relative_index < 14 ? e.v : e.h) = -1;
+      (e.relative_index >= 12 ? lone : E).push_back(e);
+    }
+    CHECK_FALSE(fit_nesting(four.D, E, lone));
+  }
+  // A lone pattern off the nesting (another layout) does not count.
+  {
+    Built off = build(ns, v);
+    std::vector<ChartElement> E = kept;
+    std::vector<ChartElement> lone = partial;
+    off.D.patterns[lone.back().v].center_px = off.D.patterns[lone.back().v].center_px + Vec2{9, 0};
+    CHECK_FALSE(fit_nesting(off.D, E, lone));
+    CHECK(E.back().relative_index == 14);
+  }
+}
+
 TEST_CASE("nesting: no pattern is placed twice, under two indices") {
   View v;
   v.w_px = 12;

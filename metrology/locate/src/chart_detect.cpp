@@ -558,7 +558,12 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   }
   const int min_index = kept.front().relative_index;
   for (ChartElement& e : kept) e.relative_index -= min_index;
-  const std::optional<Vec2> nesting_centre_px = fit_nesting(D, kept);
+  // The lone patterns, indexed by the series as it stands, help place the
+  // nesting; once it has moved an index, they are indexed again.
+  field.level0 = median_series_level(D, field, kept);
+  D.elements = kept;
+  const std::optional<Vec2> nesting_centre_px =
+      fit_nesting(D, kept, partial_elements(D, pairing.lone, field, img));
   field.level0 = median_series_level(D, field, kept);
 
   // Partial elements are not anchored by themselves, but a group number may

@@ -180,15 +180,22 @@ inline void sort_by_index(std::vector<ChartElement>& E) {
 // The arrangement nests: each pair of groups is the pair two groups
 // coarser (12 indices) scaled by 1/4 about one point of the chart, on the
 // makers' charts and the generated one alike. fit_nesting finds that point
-// from the elements found 12 indices apart (E: relative indices from 0,
-// coarse to fine), and moves a fine element's index by one where its
-// position says its period misled (blur), keeping the indices unique;
-// nullopt when fewer than two elements nest about one point (two elements
-// are four patterns that must each land within a quarter period, and
-// never less than 2.5 px: dev_05's inner pair shows only G6E2 and G6E3).
+// from the elements found 12 indices apart (kept: complete elements,
+// relative indices from 0, coarse to fine; partial: lone patterns indexed
+// by the series, partial_elements, used only where the complete elements
+// do not nest by themselves), and moves a complete fine element's
+// index by one where its position says its period misled (blur), keeping
+// the indices unique. Nullopt when fewer than four patterns nest about one
+// point, one complete element among them (two elements are four patterns
+// that must each land within a quarter period, and never less than 2.5
+// px: dev_05's inner pair shows only G6E2 and G6E3; resized by 0.8 it
+// shows G6E2 whole and only one triplet each of G6E1 and G6E4, and G6E2's
+// period, 4 % short, indexed it G6E3).
 // The point is sought from each element alone and from each two together;
-// among as many that nest, fewer index moves win, then the closer fit.
-std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElement>& E);
+// among as many patterns that nest, fewer index moves win, then the
+// closer fit.
+std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElement>& kept,
+                                const std::vector<ChartElement>& partial = {});
 
 // See ChartDetection::predicted_elements: the ends of the columns found,
 // then the elements of the pairs nested inside the ones held, about
