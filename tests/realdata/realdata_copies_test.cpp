@@ -3,14 +3,17 @@
 // (pixels moved), set down askew (turned and resampled), defocused, saved
 // as JPEG, resized, with more noise. Each copy is made with OpenImageIO in
 // the process's scratch folder, never in the repo, and must never be
-// identified differently from its original; askew its limits are held to
-// the readings; defocused, resized or noisier they may never rise more
-// than one element; as JPEG they stay within one element of the
-// original's.
+// identified differently from its original, nor name any element it
+// measures where the original measured one otherwise (check_named_alike:
+// the JSON's center_px mapped back through the copy's pixel map); askew
+// its limits are held to the readings; defocused, resized or noisier they
+// may never rise more than one element; as JPEG they stay within one
+// element of the original's.
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -77,6 +80,50 @@ void check_identified_alike(const json& copy, const json& original, double scale
         std::lround(steps));
 }
 
+// Where a copy's pixel was in its original's pixels ((0, 0) the centre of
+// the top-left pixel).
+struct Px {
+  double x = 0, y = 0;
+};
+using PixelMap = std::function<Px(Px)>;
+
+Px size_of(const json& j) { return {j["input"]["width"].get<double>(), j["input"]["height"].get<double>()}; }
+
+// A copy resized (OpenImageIO maps pixel areas: the edges stay the edges),
+// or one of the same size (the identity).
+PixelMap resized_back(const json& copy, const json& original) {
+  const Px from = size_of(copy), to = size_of(original);
+  return [=](Px p) { return Px{(p.x + 0.5) * to.x / from.x - 0.5, (p.y + 0.5) * to.y / from.y - 0.5}; };
+}
+
+// Each element the copy measured where its original measured one of the
+// same orientation (the middle of its strip mapped back, within 1.5 of the
+// original's bar widths: neighbours in a column stand 6.5 or more apart)
+// carries the original's name: an index one off would give it another
+// element's frequency. Counted in `matched`; the copy must match some.
+void check_named_alike(const json& copy, const json& original, const PixelMap& to_original, int& matched) {
+  int here = 0;
+  for (const json& e : copy["elements"]) {
+    if (e["center_px"].is_null()) continue;
+    const Px at = to_original({e["center_px"][0].get<double>(), e["center_px"][1].get<double>()});
+    const json* nearest = nullptr;
+    double nearest_bars = 1.5;
+    for (const json& o : original["elements"]) {
+      if (o["center_px"].is_null() || o["orientation"] != e["orientation"]) continue;
+      const double bars = std::hypot(o["center_px"][0].get<double>() - at.x, o["center_px"][1].get<double>() - at.y) /
+                          o["px_per_bar"].get<double>();
+      if (bars < nearest_bars) nearest_bars = bars, nearest = &o;
+    }
+    if (!nearest) continue;
+    ++here;
+    CAPTURE(e.dump());
+    CAPTURE(nearest->dump());
+    CHECK(element_index(e["group"], e["element"]) == element_index((*nearest)["group"], (*nearest)["element"]));
+  }
+  CHECK(here > 0);
+  matched += here;
+}
+
 // A copy's limits against its original's, appended to `table`: none may
 // lie more than one element finer (resampling, blur and noise add no
 // detail), nor more than `max_loss` coarser when given. Returns how many
@@ -100,6 +147,7 @@ int check_limits_against_original(const json& copy, const json& original, std::s
 // What the copies of one kind came to, and their table.
 struct CopyCounts {
   int tried = 0, identified = 0, resolved_any = 0;
+  int matched = 0;  // elements matched to the original's by place (check_named_alike)
   std::string table;
 };
 
@@ -118,6 +166,7 @@ void tally_copy(const std::string& file, const json& copy, const std::string& la
   }
   ++counts.identified;
   check_identified_alike(copy, original, scale);
+  check_named_alike(copy, original, resized_back(copy, original), counts.matched);
   counts.resolved_any += check_limits_against_original(copy, original, counts.table, max_loss);
 }
 
@@ -135,6 +184,14 @@ namespace {
 // scratch folder, never in the repo): ImageBufAlgo moves pixels only.
 // OpenImageIO may tag the copy with the colour space it assumed (sRGB for
 // an untagged 8-bit PNG), which tactres decodes alike.
+// Where a pixel of such a copy was in the original (`size`: its width and
+// height): rotate90 turns clockwise on screen, flop mirrors left-right.
+PixelMap transformed_back(const std::string& how, Px size) {
+  if (how == "turned_90") return [=](Px p) { return Px{p.y, size.y - 1 - p.x}; };
+  if (how == "turned_180") return [=](Px p) { return Px{size.x - 1 - p.x, size.y - 1 - p.y}; };
+  return [=](Px p) { return Px{size.x - 1 - p.x, p.y}; };
+}
+
 fs::path transformed(const fs::path& image, const std::string& how) {
   namespace oiio = OIIO;
   const oiio::ImageBuf in(image.string());
@@ -160,7 +217,7 @@ constexpr int kMinTransformedIdentified = 16;  // of 18 on 2026-11-27
 
 TEST_CASE("real chart captures turned or mirrored are never identified differently") {
   if (realdata_absent()) return;
-  int compared = 0, identified = 0;
+  int compared = 0, identified = 0, matched = 0;
   std::string relative;
   for (const std::string file : {"dev_01_orig.tif", "dev_02_orig.tif", "dev_03_orig.png", "dev_04_orig.png",
                                  "dev_05_orig.png", "dev_14_orig.png"}) {
@@ -177,6 +234,7 @@ TEST_CASE("real chart captures turned or mirrored are never identified different
         continue;
       }
       ++identified;
+      check_named_alike(*r.j, original, transformed_back(how, size_of(original)), matched);
       const json& got = (*r.j)["chart"]["largest_element"];
       CHECK(got["group"] == largest["group"]);
       CHECK(got["element"] == largest["element"]);
@@ -184,7 +242,8 @@ TEST_CASE("real chart captures turned or mirrored are never identified different
       CHECK(got["period_px"].get<double>() == doctest::Approx(largest["period_px"].get<double>()).epsilon(0.05));
     }
   }
-  MESSAGE("turned or mirrored: " << identified << " of " << compared << " identified as the original; relative:"
+  MESSAGE("turned or mirrored: " << identified << " of " << compared << " identified as the original, " << matched
+                                 << " elements named as the original's at their place; relative:"
                                  << (relative.empty() ? " none" : relative));
   CHECK(compared == 18);
   CHECK(identified >= kMinTransformedIdentified);
@@ -217,13 +276,14 @@ fs::path as_jpeg(const fs::path& image) {
 // PlacementStore::unslipped.)
 TEST_CASE("real chart captures saved as JPEG read as the originals") {
   if (realdata_absent()) return;
-  int compared = 0, identified = 0;
+  int compared = 0, identified = 0, matched = 0;
   for (const std::string file : kLabelled) {
     const json& original = anchored_original(file);
     CAPTURE(file);
     const json& copy = measured_copy(as_jpeg(kRealdata / file));
     if (!absolute(copy)) continue;
     ++identified;
+    check_named_alike(copy, original, resized_back(copy, original), matched);
     const json &got = copy["chart"]["largest_element"], &was = original["chart"]["largest_element"];
     CHECK(got["group"] == was["group"]);
     CHECK(got["element"] == was["element"]);
@@ -236,7 +296,8 @@ TEST_CASE("real chart captures saved as JPEG read as the originals") {
       CHECK(std::abs(element_index(l["group"], l["element"]) - element_index(l0["group"], l0["element"])) <= 1);
     }
   }
-  MESSAGE("saved as JPEG (quality 85): " << identified << " of 7 identified as the original; " << compared
+  MESSAGE("saved as JPEG (quality 85): " << identified << " of 7 identified as the original, " << matched
+                                         << " elements named as the original's at their place; " << compared
                                          << " limits compared");
   CHECK(identified == 7);
 }
@@ -258,6 +319,18 @@ fs::path changed_copy(const fs::path& image, const std::string& suffix, Change c
 
 // `image` turned by angle_deg about its centre, resampled (OpenImageIO's
 // default filter): a chart set down askew.
+// Where a pixel of such a copy was in the original (`size`: the width and
+// height of both): ImageBufAlgo::rotate turns clockwise on screen about
+// the middle of the image, keeping its size.
+PixelMap turned_by_back(double angle_deg, Px size) {
+  const double c = std::cos(angle_deg * M_PI / 180), s = std::sin(angle_deg * M_PI / 180);
+  const Px mid{0.5 * size.x - 0.5, 0.5 * size.y - 0.5};
+  return [=](Px p) {
+    const double dx = p.x - mid.x, dy = p.y - mid.y;
+    return Px{mid.x + c * dx + s * dy, mid.y - s * dx + c * dy};
+  };
+}
+
 fs::path turned_by(const fs::path& image, double angle_deg) {
   return changed_copy(image, "_askew" + std::to_string(int(angle_deg)), [&](const OIIO::ImageBuf& b, const auto&) {
     return OIIO::ImageBufAlgo::rotate(b, static_cast<float>(angle_deg * M_PI / 180));
@@ -285,7 +358,7 @@ TEST_CASE("real chart captures set down askew are never identified differently")
   std::map<std::string, json> by_orig;
   const json all = readings();
   for (const json& im : all["images"]) by_orig[im["orig"].get<std::string>()] = im;
-  int tried = 0, identified = 0, readings_n = 0, agreeing = 0;
+  int tried = 0, identified = 0, readings_n = 0, agreeing = 0, matched = 0;
   std::string table;
   for (const std::string file : kLabelled) {
     const json& original = anchored_original(file);
@@ -308,9 +381,11 @@ TEST_CASE("real chart captures set down askew are never identified differently")
       if (!absolute(copy)) continue;
       ++identified;
       check_identified_alike(copy, original);
+      check_named_alike(copy, original, turned_by_back(angle_deg, size_of(original)), matched);
     }
   }
-  MESSAGE("set down askew: " << identified << " of " << tried << " identified as the original; " << agreeing << " of "
+  MESSAGE("set down askew: " << identified << " of " << tried << " identified as the original, " << matched
+                             << " elements named as the original's at their place; " << agreeing << " of "
                              << readings_n << " limits within one element of the reading (elements from it; - "
                              << "relative or none)\n"
                              << table);
@@ -350,7 +425,8 @@ TEST_CASE("real chart captures defocused are never identified differently, nor r
       CAPTURE(width_px);
       check_copy(file, defocused(kRealdata / file, width_px), "blurred " + std::to_string(width_px) + " px", c);
     }
-  MESSAGE("defocused: " << c.identified << " of " << c.tried << " identified as the original; " << c.resolved_any
+  MESSAGE("defocused: " << c.identified << " of " << c.tried << " identified as the original, " << c.matched
+                        << " elements named as the original's at their place; " << c.resolved_any
                         << " limits resolved (elements from the original's)\n"
                         << c.table);
   CHECK(c.tried == 14);
@@ -391,7 +467,8 @@ TEST_CASE("real chart captures resized are never identified differently, nor rea
       check_copy(file, resized(kRealdata / file, scale), scale < 1 ? "x0.8" : "x1.25", c, scale,
                  scale > 1 ? std::optional<int>(1) : std::nullopt);
     }
-  MESSAGE("resized: " << c.identified << " of " << c.tried << " identified as the original (elements from the "
+  MESSAGE("resized: " << c.identified << " of " << c.tried << " identified as the original, " << c.matched
+                      << " elements named as the original's at their place (limits in elements from the "
                       << "original's limits)\n"
                       << c.table);
   CHECK(c.tried == 14);
@@ -443,7 +520,9 @@ TEST_CASE("real chart captures with added noise are never identified differently
     tally_copy(file, copy, "", c);
   }
   MESSAGE("noisier (2 % of full scale): " << c.tried << " of " << c.tried + unusable << " measured, " << c.identified
-                                          << " identified as the original (elements from the original's limits)\n"
+                                          << " identified as the original, " << c.matched
+                                          << " elements named as the original's at their place (limits in elements "
+                                          << "from the original's)\n"
                                           << c.table);
   CHECK(c.tried >= kMinNoisierMeasured);
   CHECK(c.identified >= kMinNoisierIdentified);

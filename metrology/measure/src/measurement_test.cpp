@@ -1,4 +1,4 @@
-// MeasureOptions: the presets' profile bins per element (bin_px_for); the chart JSON's largest element.
+// MeasureOptions: the presets' profile bins per element (bin_px_for); the chart JSON's largest element; an element's place in the measurement JSON.
 
 #include <doctest/doctest.h>
 
@@ -42,4 +42,20 @@ TEST_CASE("chart JSON: largest_element is the element the indices count from, no
   D.elements.clear();
   CHECK(largest_found(D) == nullptr);
   CHECK_FALSE(chart_to_json(D).contains("largest_element"));
+}
+
+TEST_CASE("measurement JSON: an element's center_px is the middle of its strip, null where none was sampled in view") {
+  Measurement m;
+  m.usable = true;
+  ElementResult sampled = ElementResult::of(3, 2, BarOrientation::vertical_bars, 8.98, 2.5);
+  sampled.outline_px = {Vec2{10, 20}, Vec2{30, 20}, Vec2{30, 61}, Vec2{10, 61}};
+  sampled.outline_valid = true;
+  ElementResult outside = ElementResult::of(3, 3, BarOrientation::vertical_bars, 10.08, 2.2);
+  outside.outline_px = sampled.outline_px;  // left from a strip out of view
+  outside.status = ElementStatus::out_of_view;
+  m.elements = {sampled, outside};
+  const nlohmann::json j = measurement_to_json(m, MeasurementContext{});
+  REQUIRE(j["elements"].size() == 2);
+  CHECK(j["elements"][0]["center_px"] == nlohmann::json::array({20.0, 40.5}));
+  CHECK(j["elements"][1]["center_px"].is_null());
 }
