@@ -32,6 +32,9 @@ namespace {
 // Absolute indices the largest element found may have: groups -2..9.
 constexpr int kMinIndex = -12, kMaxIndex = 59;
 constexpr size_t kMaxBoxes = 40;
+// A label counts (support, below) only within this many periods of its
+// nearest element, and at least this many of its periods tall.
+constexpr double kMaxLabelDistancePeriods = 8, kMinLabelPeriods = 0.5;
 // Under a fibre bundle (ChartDetection::fibre_lattice_pitch_px), the
 // numbers are read on the detection's copy smoothed once more by this many
 // lattice pitches (0.48 in all: the honeycomb keeps 1 % of its amplitude),
@@ -126,13 +129,23 @@ std::vector<cv::Rect> label_boxes(const cv::Mat& img, const ChartDetection& D, c
   search.ink = D.light_bars ? Ink::light : Ink::dark;
   std::vector<cv::Rect> boxes = find_label_boxes(img, search);
   // Distance to the nearest element, in that element's periods: computed
-  // once per box, not per comparison.
+  // once per box, not per comparison. A box that support() could not
+  // count, whatever it reads, is not read (OCR is most of the anchor's
+  // cost): farther than kMaxLabelDistancePeriods from every element, or
+  // too small for its nearest element (the glyph read lies within the
+  // box's square).
   std::vector<std::pair<double, cv::Rect>> by_distance;
   for (const cv::Rect& b : boxes) {
     if (b.x <= 0 || b.y <= 0 || b.x + b.width >= img.cols || b.y + b.height >= img.rows) continue;
     const Vec2 c = box_center(b);
-    double nearest = 1e300;
-    for (const ChartElement& e : kept) nearest = std::min(nearest, norm(c - element_center(D, e)) / e.period_px);
+    double nearest = 1e300, nearest_period_px = 0;
+    for (const ChartElement& e : kept)
+      if (const double d = norm(c - element_center(D, e)) / e.period_px; d < nearest)
+        nearest = d, nearest_period_px = e.period_px;
+    const int side_px = std::max(b.width, b.height);
+    if (nearest > kMaxLabelDistancePeriods || side_px < kMinLabelCharPx ||
+        side_px <= kMinLabelPeriods * nearest_period_px)
+      continue;
     by_distance.push_back({nearest, b});
   }
   std::stable_sort(by_distance.begin(), by_distance.end(),
@@ -208,10 +221,11 @@ std::map<int, Support> support(const ChartDetection& D, const std::vector<ChartE
       const double d = norm(l.center_px - element_center(D, e)) / e.period_px;
       if (d < best) best = d, nearest = &e;
     }
-    if (!nearest || best > 8) continue;
+    if (!nearest || best > kMaxLabelDistancePeriods) continue;
     const double size = l.char_height_px / nearest->period_px;
     if (l.char_height_px < kMinLabelCharPx) continue;
-    const bool as_element = l.value >= 1 && l.value <= 6 && size > 0.5 && size < kMaxElementLabelPeriods && best < 5;
+    const bool as_element =
+        l.value >= 1 && l.value <= 6 && size > kMinLabelPeriods && size < kMaxElementLabelPeriods && best < 5;
     // With the arrangement known, a group number stands only by a column's
     // top (indices 1 and 6 modulo 12) or by the even group's element 1.
     const int nearest_n12 = phase ? mod12(nearest->relative_index + *phase) : 0;
