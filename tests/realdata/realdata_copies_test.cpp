@@ -469,7 +469,7 @@ TEST_CASE("real chart captures resized are never identified differently, nor rea
     }
   MESSAGE("resized: " << c.identified << " of " << c.tried << " identified as the original, " << c.matched
                       << " elements named as the original's at their place (limits in elements from the "
-                      << "original's limits)\n"
+                      << "original's)\n"
                       << c.table);
   CHECK(c.tried == 14);
   CHECK(c.identified >= kMinResizedIdentified);
