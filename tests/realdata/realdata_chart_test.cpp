@@ -8,7 +8,9 @@
 // - the exit code is 0, 1 or 2, and the JSON parses with no NaN/inf;
 // - every graded element (status other than ok) has a note saying why;
 // - with absolute indices, no element is called resolved more than one
-//   element beyond the reading.
+//   element beyond the reading;
+// - a 16-bit conversion of the original's size names its elements as the
+//   original does.
 // The agreement with the readings (discrete limit within one element,
 // absolute identification) is measured and printed, and must not fall
 // below the level reached so far (kMinAgreement); the goal is 90 %.
@@ -134,6 +136,26 @@ void check_agreement() {
   CHECK(identified >= kMinIdentified);
 }
 
+// The 16-bit conversion of a capture the same size as its original bytes
+// (the same frame, decoded alike: README of ../shared/realdata) names each
+// element it measures as the original does at that place, where both are
+// anchored.
+void check_conversions_named_alike() {
+  int pairs = 0, matched = 0;
+  const json all = readings();
+  for (const json& im : all["images"]) {
+    const Run &png = measure(im["file"]), &orig = measure(im["orig"]);
+    if (!png.j || !orig.j || !absolute(*png.j) || !absolute(*orig.j)) continue;
+    if (size_of(*png.j).x != size_of(*orig.j).x || size_of(*png.j).y != size_of(*orig.j).y) continue;
+    CAPTURE(im["file"].get<std::string>());
+    ++pairs;
+    check_named_alike(*png.j, *orig.j, resized_back(*png.j, *orig.j), matched);
+  }
+  MESSAGE("16-bit conversions: " << pairs << " anchored pairs of the original's size, " << matched
+                                 << " elements named as the original's at their place");
+  CHECK(pairs >= 4);
+}
+
 }  // namespace
 
 // One test case, so that each capture is measured once (the runs are cached
@@ -145,6 +167,7 @@ TEST_CASE("real chart captures against the visual readings") {
     check_nothing_resolved_beyond_reading();
   }
   SUBCASE("agreement within one element") { check_agreement(); }
+  SUBCASE("16-bit conversions name their elements as the originals") { check_conversions_named_alike(); }
 }
 
 // Real photographs that hold no chart, from another project (Debian's

@@ -13,7 +13,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -78,50 +77,6 @@ void check_identified_alike(const json& copy, const json& original, double scale
   CHECK(std::abs(steps - std::round(steps)) < 0.45);
   CHECK(element_index(got["group"], got["element"]) - element_index(was["group"], was["element"]) ==
         std::lround(steps));
-}
-
-// Where a copy's pixel was in its original's pixels ((0, 0) the centre of
-// the top-left pixel).
-struct Px {
-  double x = 0, y = 0;
-};
-using PixelMap = std::function<Px(Px)>;
-
-Px size_of(const json& j) { return {j["input"]["width"].get<double>(), j["input"]["height"].get<double>()}; }
-
-// A copy resized (OpenImageIO maps pixel areas: the edges stay the edges),
-// or one of the same size (the identity).
-PixelMap resized_back(const json& copy, const json& original) {
-  const Px from = size_of(copy), to = size_of(original);
-  return [=](Px p) { return Px{(p.x + 0.5) * to.x / from.x - 0.5, (p.y + 0.5) * to.y / from.y - 0.5}; };
-}
-
-// Each element the copy measured where its original measured one of the
-// same orientation (the middle of its strip mapped back, within 1.5 of the
-// original's bar widths: neighbours in a column stand 6.5 or more apart)
-// carries the original's name: an index one off would give it another
-// element's frequency. Counted in `matched`; the copy must match some.
-void check_named_alike(const json& copy, const json& original, const PixelMap& to_original, int& matched) {
-  int here = 0;
-  for (const json& e : copy["elements"]) {
-    if (e["center_px"].is_null()) continue;
-    const Px at = to_original({e["center_px"][0].get<double>(), e["center_px"][1].get<double>()});
-    const json* nearest = nullptr;
-    double nearest_bars = 1.5;
-    for (const json& o : original["elements"]) {
-      if (o["center_px"].is_null() || o["orientation"] != e["orientation"]) continue;
-      const double bars = std::hypot(o["center_px"][0].get<double>() - at.x, o["center_px"][1].get<double>() - at.y) /
-                          o["px_per_bar"].get<double>();
-      if (bars < nearest_bars) nearest_bars = bars, nearest = &o;
-    }
-    if (!nearest) continue;
-    ++here;
-    CAPTURE(e.dump());
-    CAPTURE(nearest->dump());
-    CHECK(element_index(e["group"], e["element"]) == element_index((*nearest)["group"], (*nearest)["element"]));
-  }
-  CHECK(here > 0);
-  matched += here;
 }
 
 // A copy's limits against its original's, appended to `table`: none may

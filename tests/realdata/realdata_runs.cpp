@@ -1,5 +1,6 @@
 #include "realdata_runs.h"
 
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -93,6 +94,36 @@ std::optional<int> limit_from_reading(const json& j, const json& im, const char*
   const json &fr = reading["finest_resolved"], &l = j["limits"][o];
   if (l["resolved_any"] != true) return std::nullopt;
   return element_index(l["group"], l["element"]) - element_index(fr["group"], fr["element"]);
+}
+
+Px size_of(const json& j) { return {j["input"]["width"].get<double>(), j["input"]["height"].get<double>()}; }
+
+PixelMap resized_back(const json& copy, const json& original) {
+  const Px from = size_of(copy), to = size_of(original);
+  return [=](Px p) { return Px{(p.x + 0.5) * to.x / from.x - 0.5, (p.y + 0.5) * to.y / from.y - 0.5}; };
+}
+
+void check_named_alike(const json& copy, const json& original, const PixelMap& to_original, int& matched) {
+  int here = 0;
+  for (const json& e : copy["elements"]) {
+    if (e["center_px"].is_null()) continue;
+    const Px at = to_original({e["center_px"][0].get<double>(), e["center_px"][1].get<double>()});
+    const json* nearest = nullptr;
+    double nearest_bars = 1.5;
+    for (const json& o : original["elements"]) {
+      if (o["center_px"].is_null() || o["orientation"] != e["orientation"]) continue;
+      const double bars = std::hypot(o["center_px"][0].get<double>() - at.x, o["center_px"][1].get<double>() - at.y) /
+                          o["px_per_bar"].get<double>();
+      if (bars < nearest_bars) nearest_bars = bars, nearest = &o;
+    }
+    if (!nearest) continue;
+    ++here;
+    CAPTURE(e.dump());
+    CAPTURE(nearest->dump());
+    CHECK(element_index(e["group"], e["element"]) == element_index((*nearest)["group"], (*nearest)["element"]));
+  }
+  CHECK(here > 0);
+  matched += here;
 }
 
 }  // namespace tactres_realdata

@@ -5,6 +5,7 @@
 // this file (readings.json; how they were made: READINGS.md).
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -54,5 +55,27 @@ void check_resolved_within_reading(const json& j, const json& im, const std::str
 // from the reading `im`'s; nullopt without a reading there, absolute
 // indices, or anything resolved.
 std::optional<int> limit_from_reading(const json& j, const json& im, const char* o);
+
+// Where a copy's pixel was in its original's pixels ((0, 0) the centre of
+// the top-left pixel).
+struct Px {
+  double x = 0, y = 0;
+};
+using PixelMap = std::function<Px(Px)>;
+
+// A measurement's image width and height (its "input" block).
+Px size_of(const json& j);
+
+// A copy resized (OpenImageIO maps pixel areas: the edges stay the edges),
+// or one of the same size (the identity).
+PixelMap resized_back(const json& copy, const json& original);
+
+// Each element the copy measured where its original measured one of the
+// same orientation (the middle of its strip mapped back, within 1.5 of the
+// original's bar widths: neighbours in a column stand 6.5 or more apart)
+// carries the original's name (doctest CHECKs): an index one off would
+// give it another element's frequency. Counted in `matched`; the copy must
+// match some.
+void check_named_alike(const json& copy, const json& original, const PixelMap& to_original, int& matched);
 
 }  // namespace tactres_realdata
