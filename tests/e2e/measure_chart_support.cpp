@@ -160,6 +160,7 @@ void check_against_truth(const ChartRun& run, const std::string& label, int min_
   const double scale = std::exp2(*shift / 6.0);  // relative lp/mm -> true lp/mm
   // m agrees where the bars are well sampled.
   double worst_dm = 0;
+  int placed_checked = 0;
   for (const ElementResult& e : M.elements) {
     const int n = 6 * e.group + e.element - 1 + *shift;
     const int g = n >= 0 ? n / 6 : -((-n + 5) / 6);
@@ -172,6 +173,21 @@ void check_against_truth(const ChartRun& run, const std::string& label, int min_
     // the truth is not reversed.
     if (e.status == ElementStatus::ok && t->px_per_bar >= 2.5 && t->m >= 0)
       worst_dm = std::max(worst_dm, std::abs(e.m - t->m));
+    // Every element measured in view, found or placed, is measured nearer
+    // the truth's element it is named after than any other of its
+    // orientation: a name one index off would give it another element's
+    // frequency.
+    if (e.outline_valid && t->in_view) {
+      const Vec2 centre_px = 0.25 * (e.outline_px[0] + e.outline_px[1] + e.outline_px[2] + e.outline_px[3]);
+      double other_px = 1e300;
+      for (const TruthElement& o : run.truth.elements)
+        if (&o != t && o.orientation == e.orientation) other_px = std::min(other_px, norm(centre_px - o.center_px));
+      CAPTURE(e.group);
+      CAPTURE(e.element);
+      CAPTURE(std::string(to_string(e.orientation)));
+      CHECK(norm(centre_px - t->center_px) < other_px);
+      ++placed_checked;
+    }
     if (std::getenv("TACTRES_CHART_DEBUG"))
       MESSAGE("G" << g << "E" << n - 6 * g + 1 << " " << std::string(to_string(e.orientation)) << " " << e.px_per_bar << " px/bar: m "
                   << e.m << " +- " << e.m_sigma << " true " << t->m << " (" << t->px_per_bar << ") "
@@ -180,6 +196,7 @@ void check_against_truth(const ChartRun& run, const std::string& label, int min_
                   << " px");
   }
   CHECK(worst_dm <= 0.05);
+  CHECK(placed_checked >= found);
   if (std::getenv("TACTRES_CHART_DEBUG"))
     MESSAGE("contrast x " << M.reference.vertical_bars.contrast << " +- " << M.reference.vertical_bars.contrast_sigma << ", y " << M.reference.horizontal_bars.contrast
                           << " +- " << M.reference.horizontal_bars.contrast_sigma);
