@@ -144,6 +144,7 @@ namespace {
 PixelMap transformed_back(const std::string& how, Px size) {
   if (how == "turned_90") return [=](Px p) { return Px{p.y, size.y - 1 - p.x}; };
   if (how == "turned_180") return [=](Px p) { return Px{size.x - 1 - p.x, size.y - 1 - p.y}; };
+  REQUIRE(how == "mirrored");
   return [=](Px p) { return Px{size.x - 1 - p.x, p.y}; };
 }
 

@@ -282,17 +282,19 @@ Vec2 centre_from(const ChartDetection& D, const ChartElement& fine, const ChartE
 int patterns_shown(const ChartElement& e) { return (e.h >= 0) + (e.v >= 0); }
 
 // The index offsets a fine element may be off by: a well-sampled one's
-// period is trusted (0 only); a finer one's may be a step off (blur).
-std::vector<int> offsets_for(const ChartElement& e) {
-  return e.period_px >= kWellSampledPeriodPx ? std::vector<int>{0} : std::vector<int>{0, -1, 1};
+// period is trusted (0 only); a finer one's may be a step off (blur). A
+// lone triplet (`may_move` false) nests as indexed or not at all: its
+// index is the series' again afterwards, never the nesting's.
+std::vector<int> offsets_for(const ChartElement& e, bool may_move) {
+  return !may_move || e.period_px >= kWellSampledPeriodPx ? std::vector<int>{0} : std::vector<int>{0, -1, 1};
 }
 
 // Which index offset makes element `fine` nest about centre_px against the
 // coarse element 12 indices (less the offset) coarser, or nullopt.
 std::optional<int> nesting_offset(const ChartDetection& D, const std::vector<ChartElement>& E,
-                                  const std::map<int, size_t>& coarse, size_t fine, Vec2 centre_px) {
+                                  const std::map<int, size_t>& coarse, size_t fine, Vec2 centre_px, bool may_move) {
   const ChartElement& f = E[fine];
-  for (int delta : offsets_for(f)) {
+  for (int delta : offsets_for(f, may_move)) {
     const auto c = coarse.find(f.relative_index + delta - kPairIndices);
     if (c != coarse.end() && nests(D, f, E[c->second], centre_px)) return delta;
   }
@@ -362,7 +364,7 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
   const auto inliers_about = [&](Vec2 point_px) {
     std::vector<std::pair<size_t, int>> inliers;
     for (size_t j = 0; j < E.size(); ++j)
-      if (const auto d = nesting_offset(D, E, coarse, j, point_px)) inliers.push_back({j, *d});
+      if (const auto d = nesting_offset(D, E, coarse, j, point_px, j < kept.size())) inliers.push_back({j, *d});
     return inliers;
   };
   const auto mean_centre = [&](const std::vector<std::pair<size_t, int>>& inliers) {
@@ -377,7 +379,7 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
   // about it and then about the point those give together.
   std::vector<std::pair<size_t, int>> singles;  // (element, index offset)
   for (size_t i = 0; i < E.size(); ++i)
-    for (int delta : offsets_for(E[i]))
+    for (int delta : offsets_for(E[i], i < kept.size()))
       if (coarse.count(E[i].relative_index + delta - kPairIndices)) singles.push_back({i, delta});
   const auto nesting_of = [&](std::vector<std::pair<size_t, int>> inliers) {
     Nesting n;
@@ -392,6 +394,13 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
     n.inliers = std::move(inliers);
     return n;
   };
+  // Four patterns, as two complete elements show, and one complete
+  // element among them at least (lone triplets alone are no nesting, and
+  // must not outrank one that is).
+  const auto valid = [&](const Nesting& n) {
+    return n.patterns >= 4 && std::any_of(n.inliers.begin(), n.inliers.end(),
+                                           [&](const auto& in) { return in.first < kept.size(); });
+  };
   Nesting best;
   for (size_t a = 0; a < singles.size(); ++a)
     for (size_t b = a; b < singles.size(); ++b) {
@@ -402,16 +411,12 @@ std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElemen
         if (std::vector<std::pair<size_t, int>> again = inliers_about(mean_centre(inliers));
             again.size() > inliers.size())
           inliers = std::move(again);
-      if (Nesting n = nesting_of(std::move(inliers)); better_nesting(n, best)) best = std::move(n);
+      if (Nesting n = nesting_of(std::move(inliers)); valid(n) && better_nesting(n, best)) best = std::move(n);
     }
-  // Four patterns, as two complete elements show, and one complete element
-  // among them at least.
-  const bool complete_inlier = std::any_of(best.inliers.begin(), best.inliers.end(),
-                                           [&](const auto& in) { return in.first < kept.size(); });
-  if (best.patterns < 4 || !complete_inlier) return std::nullopt;
+  if (best.inliers.empty()) return std::nullopt;
   // The centre from all that nest; then each complete fine element takes
-  // the index of the nested image it lies on (a partial one's index is
-  // the series' again once the complete ones are right).
+  // the index of the nested image it lies on (a lone triplet nested as
+  // indexed: offset 0).
   std::vector<std::pair<size_t, int>> moves;
   for (const auto& in : best.inliers)
     if (in.first < kept.size()) moves.push_back(in);

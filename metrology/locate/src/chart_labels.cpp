@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -33,8 +34,11 @@ namespace {
 constexpr int kMinIndex = -12, kMaxIndex = 59;
 constexpr size_t kMaxBoxes = 40;
 // A label counts (support, below) only within this many periods of its
-// nearest element, and at least this many of its periods tall.
-constexpr double kMaxLabelDistancePeriods = 8, kMinLabelPeriods = 0.5;
+// nearest element, and more than this many of its periods tall (as an
+// element number; a group number must be over kMinGroupLabelPeriods, which
+// label_boxes' pruning relies on being no less).
+constexpr double kMaxLabelDistancePeriods = 8, kMinLabelPeriods = 0.5, kMinGroupLabelPeriods = 1.0;
+static_assert(kMinGroupLabelPeriods >= kMinLabelPeriods);
 // Under a fibre bundle (ChartDetection::fibre_lattice_pitch_px), the
 // numbers are read on the detection's copy smoothed once more by this many
 // lattice pitches (0.48 in all: the honeycomb keeps 1 % of its amplitude),
@@ -51,6 +55,17 @@ Vec2 box_center(const cv::Rect& b) { return {b.x + 0.5 * b.width, b.y + 0.5 * b.
 Vec2 element_center(const ChartDetection& D, const ChartElement& e) {
   if (e.h < 0 || e.v < 0) return D.patterns[std::max(e.h, e.v)].center_px;
   return 0.5 * (D.patterns[e.h].center_px + D.patterns[e.v].center_px);
+}
+
+// The element nearest to `at_px` in its own periods, and that distance;
+// null (and infinity) when there is none.
+std::pair<const ChartElement*, double> nearest_element(const ChartDetection& D, const std::vector<ChartElement>& E,
+                                                       Vec2 at_px) {
+  const ChartElement* nearest = nullptr;
+  double periods = std::numeric_limits<double>::infinity();
+  for (const ChartElement& e : E)
+    if (const double d = norm(at_px - element_center(D, e)) / e.period_px; d < periods) periods = d, nearest = &e;
+  return {nearest, periods};
 }
 
 // Readers are made once and lent out, one per caller at a time:
@@ -131,22 +146,20 @@ std::vector<cv::Rect> label_boxes(const cv::Mat& img, const ChartDetection& D, c
   // Distance to the nearest element, in that element's periods: computed
   // once per box, not per comparison. A box that support() could not
   // count, whatever it reads, is not read (OCR is most of the anchor's
-  // cost): farther than kMaxLabelDistancePeriods from every element, or
-  // too small for its nearest element (the glyph read lies within the
-  // box's square).
+  // cost): farther than kMaxLabelDistancePeriods from every element, under
+  // kMinLabelCharPx, or too small for its nearest element (the glyph read
+  // lies within the box's square). Pruned before the kMaxBoxes nearest are
+  // kept, so that where more boxes are found, no countable one is crowded
+  // out by one too small.
   std::vector<std::pair<double, cv::Rect>> by_distance;
   for (const cv::Rect& b : boxes) {
     if (b.x <= 0 || b.y <= 0 || b.x + b.width >= img.cols || b.y + b.height >= img.rows) continue;
-    const Vec2 c = box_center(b);
-    double nearest = 1e300, nearest_period_px = 0;
-    for (const ChartElement& e : kept)
-      if (const double d = norm(c - element_center(D, e)) / e.period_px; d < nearest)
-        nearest = d, nearest_period_px = e.period_px;
+    const auto [nearest, periods] = nearest_element(D, kept, box_center(b));
     const int side_px = std::max(b.width, b.height);
-    if (nearest > kMaxLabelDistancePeriods || side_px < kMinLabelCharPx ||
-        side_px <= kMinLabelPeriods * nearest_period_px)
+    if (periods > kMaxLabelDistancePeriods || side_px < kMinLabelCharPx ||
+        side_px <= kMinLabelPeriods * nearest->period_px)
       continue;
-    by_distance.push_back({nearest, b});
+    by_distance.push_back({periods, b});
   }
   std::stable_sort(by_distance.begin(), by_distance.end(),
                    [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -215,12 +228,7 @@ std::map<int, Support> support(const ChartDetection& D, const std::vector<ChartE
                                const std::vector<Label>& labels, std::optional<int> phase) {
   std::map<int, Support> votes;
   for (const Label& l : labels) {
-    const ChartElement* nearest = nullptr;
-    double best = 1e300;
-    for (const ChartElement& e : kept) {
-      const double d = norm(l.center_px - element_center(D, e)) / e.period_px;
-      if (d < best) best = d, nearest = &e;
-    }
+    const auto [nearest, best] = nearest_element(D, kept, l.center_px);
     if (!nearest || best > kMaxLabelDistancePeriods) continue;
     const double size = l.char_height_px / nearest->period_px;
     if (l.char_height_px < kMinLabelCharPx) continue;
@@ -229,7 +237,8 @@ std::map<int, Support> support(const ChartDetection& D, const std::vector<ChartE
     // With the arrangement known, a group number stands only by a column's
     // top (indices 1 and 6 modulo 12) or by the even group's element 1.
     const int nearest_n12 = phase ? mod12(nearest->relative_index + *phase) : 0;
-    const bool as_group = size > 1.0 && size < 3.5 && (!phase || nearest_n12 == 0 || nearest_n12 == 1 || nearest_n12 == 6);
+    const bool as_group = size > kMinGroupLabelPeriods && size < 3.5 &&
+                          (!phase || nearest_n12 == 0 || nearest_n12 == 1 || nearest_n12 == 6);
     for (int k = kMinIndex; k <= kMaxIndex; ++k) {
       const int n = nearest->relative_index + k;
       const bool element_fits = as_element && n - 6 * floor_div6(n) == l.value - 1;

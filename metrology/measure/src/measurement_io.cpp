@@ -107,11 +107,9 @@ nlohmann::json measurement_to_json(const Measurement& m, const MeasurementContex
   nlohmann::json els = nlohmann::json::array();
   for (const ElementResult& e : m.elements) {
     const bool ok = e.status == ElementStatus::ok;
-    // Where its profile was sampled: the middle of the strip's corners.
     nlohmann::json center = nullptr;
     if (e.outline_valid) {
-      Vec2 c{0, 0};
-      for (const Vec2& q : e.outline_px) c = c + 0.25 * q;
+      const Vec2 c = e.strip_center_px();
       center = {finite(std::round(100 * c.x) / 100), finite(std::round(100 * c.y) / 100)};
     }
     els.push_back({{"group", e.group},

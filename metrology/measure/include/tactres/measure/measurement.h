@@ -112,6 +112,11 @@ struct ElementResult {
   std::string note;  // why a graded or poorly fitting element is what it is; empty if nothing to say
   std::array<Vec2, 4> outline_px{};
   bool outline_valid = false;
+  // The middle of the strip its profile was sampled in, image px (the
+  // element's place; meaningful where outline_valid).
+  Vec2 strip_center_px() const {
+    return 0.25 * (outline_px[0] + outline_px[1] + outline_px[2] + outline_px[3]);
+  }
 
   // An element not yet measured: what it is, and its scale in the image.
   static ElementResult of(int group, int element, BarOrientation orientation, double lp_per_mm, double px_per_bar) {
