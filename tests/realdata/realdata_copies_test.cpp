@@ -139,15 +139,6 @@ namespace {
 // scratch folder, never in the repo): ImageBufAlgo moves pixels only.
 // OpenImageIO may tag the copy with the colour space it assumed (sRGB for
 // an untagged 8-bit PNG), which tactres decodes alike.
-// Where a pixel of such a copy was in the original (`size`: its width and
-// height): rotate90 turns clockwise on screen, flop mirrors left-right.
-PixelMap transformed_back(const std::string& how, Px size) {
-  if (how == "turned_90") return [=](Px p) { return Px{p.y, size.y - 1 - p.x}; };
-  if (how == "turned_180") return [=](Px p) { return Px{size.x - 1 - p.x, size.y - 1 - p.y}; };
-  REQUIRE(how == "mirrored");
-  return [=](Px p) { return Px{size.x - 1 - p.x, p.y}; };
-}
-
 fs::path transformed(const fs::path& image, const std::string& how) {
   namespace oiio = OIIO;
   const oiio::ImageBuf in(image.string());
@@ -157,6 +148,16 @@ fs::path transformed(const fs::path& image, const std::string& how) {
   const fs::path path = scratch_dir() / (image.stem().string() + "_" + how + image.extension().string());
   REQUIRE_MESSAGE(out.write(path.string()), out.geterror());
   return path;
+}
+
+// Where a pixel of a copy `transformed` made was in the original (`size`:
+// its width and height): rotate90 turns clockwise on screen, flop mirrors
+// left-right.
+PixelMap transformed_back(const std::string& how, Px size) {
+  if (how == "turned_90") return [=](Px p) { return Px{p.y, size.y - 1 - p.x}; };
+  if (how == "turned_180") return [=](Px p) { return Px{size.x - 1 - p.x, size.y - 1 - p.y}; };
+  REQUIRE(how == "mirrored");
+  return [=](Px p) { return Px{size.x - 1 - p.x, p.y}; };
 }
 
 }  // namespace
@@ -275,9 +276,15 @@ fs::path changed_copy(const fs::path& image, const std::string& suffix, Change c
 
 // `image` turned by angle_deg about its centre, resampled (OpenImageIO's
 // default filter): a chart set down askew.
-// Where a pixel of such a copy was in the original (`size`: the width and
-// height of both): ImageBufAlgo::rotate turns clockwise on screen about
-// the middle of the image, keeping its size.
+fs::path turned_by(const fs::path& image, double angle_deg) {
+  return changed_copy(image, "_askew" + std::to_string(int(angle_deg)), [&](const OIIO::ImageBuf& b, const auto&) {
+    return OIIO::ImageBufAlgo::rotate(b, static_cast<float>(angle_deg * M_PI / 180));
+  });
+}
+
+// Where a pixel of a copy `turned_by` made was in the original (`size`:
+// the width and height of both): ImageBufAlgo::rotate turns clockwise on
+// screen about the middle of the image, keeping its size.
 PixelMap turned_by_back(double angle_deg, Px size) {
   const double c = std::cos(angle_deg * M_PI / 180), s = std::sin(angle_deg * M_PI / 180);
   const Px mid{0.5 * size.x - 0.5, 0.5 * size.y - 0.5};
@@ -285,12 +292,6 @@ PixelMap turned_by_back(double angle_deg, Px size) {
     const double dx = p.x - mid.x, dy = p.y - mid.y;
     return Px{mid.x + c * dx + s * dy, mid.y - s * dx + c * dy};
   };
-}
-
-fs::path turned_by(const fs::path& image, double angle_deg) {
-  return changed_copy(image, "_askew" + std::to_string(int(angle_deg)), [&](const OIIO::ImageBuf& b, const auto&) {
-    return OIIO::ImageBufAlgo::rotate(b, static_cast<float>(angle_deg * M_PI / 180));
-  });
 }
 
 }  // namespace

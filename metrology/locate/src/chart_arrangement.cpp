@@ -255,8 +255,7 @@ BarPattern nested_pattern(const BarPattern& p, Vec2 centre_px) {
 // together, and group 7 went unpredicted.
 constexpr double kNestingPlaceErrorPx = 2.5;
 // How far `fine`'s patterns lie from where `coarse`'s nest about centre_px
-// (the larger of the two distances).
-// A partial fine element (one pattern found) is held to that one.
+// (the larger of the two distances; a partial fine element's one found).
 double nesting_miss_px(const ChartDetection& D, const ChartElement& fine, const ChartElement& coarse, Vec2 centre_px) {
   const auto miss = [&](int f, int c) {
     return f < 0 ? 0.0 : norm(nested_point(D.patterns[c].center_px, centre_px) - D.patterns[f].center_px);
@@ -348,11 +347,6 @@ bool better_nesting(const Nesting& a, const Nesting& b) {
 
 std::optional<Vec2> fit_nesting(const ChartDetection& D, std::vector<ChartElement>& kept,
                                 const std::vector<ChartElement>& partial) {
-  // The lone patterns only where the complete elements do not nest by
-  // themselves: a lone pattern's place is less sure than an element's
-  // (with dev_05's the point moved, and group 7's placed bars with it).
-  if (!partial.empty())
-    if (std::optional<Vec2> point_px = fit_nesting(D, kept)) return point_px;
   // The complete elements first, so that an inlier below kept.size() is one of them.
   std::vector<ChartElement> E = kept;
   E.insert(E.end(), partial.begin(), partial.end());

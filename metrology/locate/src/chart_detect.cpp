@@ -558,12 +558,17 @@ ChartDetection detect_chart(const cv::Mat& luminance, const ChartDetectOptions& 
   }
   const int min_index = kept.front().relative_index;
   for (ChartElement& e : kept) e.relative_index -= min_index;
-  // The lone patterns, indexed by the series as it stands, help place the
-  // nesting; once it has moved an index, they are indexed again.
-  field.level0 = median_series_level(D, field, kept);
-  D.elements = kept;
-  const std::optional<Vec2> nesting_centre_px =
-      fit_nesting(D, kept, partial_elements(D, pairing.lone, field, img));
+  // Where the complete elements do not nest by themselves, the lone
+  // patterns, indexed by the series as it stands, help place the nesting
+  // (only there: a lone pattern's place is less sure than an element's,
+  // and with dev_05's the point moved, and group 7's placed bars with it);
+  // once it has moved an index, they are indexed again below.
+  std::optional<Vec2> nesting_centre_px = fit_nesting(D, kept);
+  if (!nesting_centre_px) {
+    field.level0 = median_series_level(D, field, kept);
+    D.elements = kept;
+    nesting_centre_px = fit_nesting(D, kept, partial_elements(D, pairing.lone, field, img));
+  }
   field.level0 = median_series_level(D, field, kept);
 
   // Partial elements are not anchored by themselves, but a group number may

@@ -182,8 +182,8 @@ inline void sort_by_index(std::vector<ChartElement>& E) {
 // makers' charts and the generated one alike. fit_nesting finds that point
 // from the elements found 12 indices apart (kept: complete elements,
 // relative indices from 0, coarse to fine; partial: lone patterns indexed
-// by the series, partial_elements, used only where the complete elements
-// do not nest by themselves), and moves a complete fine element's
+// by the series, partial_elements, which detect_chart offers only where
+// the complete elements do not nest by themselves), and moves a complete fine element's
 // index by one where its position says its period misled (blur), keeping
 // the indices unique. Nullopt when fewer than four patterns nest about one
 // point, one complete element among them (two elements are four patterns

@@ -1,4 +1,5 @@
-// MeasureOptions: the presets' profile bins per element (bin_px_for); the chart JSON's largest element; an element's place in the measurement JSON.
+// MeasureOptions: the presets' profile bins per element (bin_px_for); the chart JSON's largest element;
+// an element's place in the measurement JSON.
 
 #include <doctest/doctest.h>
 
