@@ -32,6 +32,13 @@ int column_of(int n) {
   return m == 0 ? 0 : m <= 5 ? 1 : 2;
 }
 
+// Whether absolute indices na and nb (modulo 12 as column_of takes them,
+// na / 12 the pair of groups) stand in one column: an even group's element
+// 1 (column 0) stands alone.
+bool same_column(int na, int nb) {
+  return floor_div(na, 12) == floor_div(nb, 12) && column_of(na) != 0 && column_of(na) == column_of(nb);
+}
+
 }  // namespace
 
 int h_side(int n, bool generated_style) { return generated_style || column_of(n) == 1 ? 1 : -1; }
@@ -102,9 +109,8 @@ void recognise_arrangement(ChartDetection& D, const ScaleField& field,
             matched += side[i] * down * (mirrored ? -1 : 1) == h_side(E[i].relative_index + p, generated);
           for (const Step& s : steps) {
             const int na = E[s.i].relative_index + p, nb = E[s.j].relative_index + p;
-            const bool same_column = na / 12 == nb / 12 && column_of(na) != 0 && column_of(na) == column_of(nb);
             const double along = down * s.along_w;
-            matched += same_column == (s.straight && along >= 5 && along <= 10);
+            matched += same_column(na, nb) == (s.straight && along >= 5 && along <= 10);
           }
           if (matched > h.matched) h.matched = matched, h.generated = generated, h.down = down;
         }
@@ -135,11 +141,15 @@ void recognise_arrangement(ChartDetection& D, const ScaleField& field,
     A.note = fmt::format("arrangement not recognised: the elements found fit it in more than one way ({} and {} "
                          "of {} observations); too little of the chart is in view",
                          best.matched, runner_up, checked);
-    if (!ways) return;
     // Every way that makes it ambiguous (within 3 observations of the
-    // best), so that the numbers are read under each of them.
+    // best): its phase, and the way, so that the numbers are read under
+    // each of them.
     for (const Hyp& h : best_per)
-      if (best.matched - h.matched < 3) ways->push_back(as_arrangement(h));
+      if (best.matched - h.matched < 3) {
+        A.candidate_phases.push_back(h.phase);
+        if (ways) ways->push_back(as_arrangement(h));
+      }
+    if (!ways) return;
     if (ways->size() > kMaxArrangementWays) ways->clear();
     return;
   }
@@ -155,7 +165,9 @@ void predict_column_ends(ChartDetection& D) {
   // Element numbers are known when anchored, and also when only the
   // arrangement is recognised (its phase fixes them and the group's parity,
   // not the group): then a column ends at element 6 too. Unanchored and
-  // unrecognised, one step beyond three in a row is all that is known.
+  // unrecognised, one step beyond three in a row is all that is known, and
+  // only where no way the arrangement may fit (candidate_phases) ends the
+  // column there.
   const std::optional<int> origin = series_origin(D);
   const bool numbered = origin.has_value();
   struct Number {
@@ -179,6 +191,16 @@ void predict_column_ends(ChartDetection& D) {
       if (!by_index.count(k - 2)) continue;
       const Vec2 c0 = D.patterns[D.elements[by_index[k - 2]].h].center_px;
       if (norm(d12 - r * (c1 - c0)) > 0.1 * norm(d12)) continue;
+      // Where the arrangement fits in several ways, each must have the
+      // three and the next in one column: a way that ends the column at e2
+      // puts the next element elsewhere (dev_02 turned by 180 degrees: a
+      // step placed below G6E6, on black ground, where the G7E1 not found
+      // heads the other column).
+      const auto continues = [&](int phase) {
+        return same_column(e1.relative_index - 1 + phase, e2.relative_index + 1 + phase);
+      };
+      if (!std::all_of(D.arrangement.candidate_phases.begin(), D.arrangement.candidate_phases.end(), continues))
+        continue;
     } else {
       // Two in a row are one column only when the element numbers say so:
       // an even group's element 1 stands apart, at the lower right;

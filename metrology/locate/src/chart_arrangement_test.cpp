@@ -213,6 +213,18 @@ TEST_CASE("column ends: a recognised arrangement ends a column at element 6, anc
   Built d = build(range(1, 3), v);
   predict_column_ends(d.D);
   CHECK(d.D.predicted_elements == 1);
+  // Not recognised, as it fits in two ways: the step is placed only where
+  // both continue the column. The three found are n 1..3 under phase 1,
+  // or n 4..6 under phase 4, where the even group's column ends at n = 5
+  // and the next (the odd group's element 1) heads the other column.
+  Built e = build(range(1, 3), v);
+  e.D.arrangement.candidate_phases = {1, 4};
+  predict_column_ends(e.D);
+  CHECK(e.D.predicted_elements == 0);
+  Built f = build(range(1, 3), v);
+  f.D.arrangement.candidate_phases = {1, 2};  // n 1..4 or 2..5: one column either way
+  predict_column_ends(f.D);
+  CHECK(f.D.predicted_elements == 1);
 }
 
 namespace {

@@ -178,6 +178,9 @@ struct ChartDetection {
     int steps_matched = 0;
     int labels_read = 0;        // group labels read (0: the group is known modulo 2 only)
     std::string note;           // what was or was not recognised, in words
+    // Not recognised because it fits in several ways about equally: each
+    // way's phase (empty otherwise).
+    std::vector<int> candidate_phases;
   } arrangement;
 };
 
