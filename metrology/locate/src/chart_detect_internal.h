@@ -213,7 +213,8 @@ struct NumberSite {
   struct Upright {
     Vec2 down_px;
     bool mirrored = false;
-    std::vector<std::vector<NumberReading>> read;  // per box
+    std::vector<std::vector<NumberReading>> read;  // per box (empty: no reading, or not read yet)
+    std::vector<bool> done;                        // per box: read
   };
   std::deque<Upright> upright;
 };

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -176,23 +177,32 @@ std::vector<std::vector<NumberReading>> read_boxes(LabelReader& reader, const cv
   return out;
 }
 
-// Every box read upright only, turned (and un-mirrored) by the chart's
-// orientation as the arrangement found it: one OCR pass a box, and no
-// digit can be taken for another one turned (a 6 for a 9, a 2 for a 5).
-// Read once per turn of the site's image.
+// The boxes that `wanted` names read upright only, turned (and
+// un-mirrored) by the chart's orientation as the arrangement found it: one
+// OCR pass a box, and no digit can be taken for another one turned (a 6
+// for a 9, a 2 for a 5). Each box is read once per turn of the site's
+// image.
 const std::vector<std::vector<NumberReading>>& read_boxes_upright(LabelReader& reader, NumberSite& site, Ink ink,
-                                                                  const ChartDetection::Arrangement& A) {
-  for (const NumberSite::Upright& u : site.upright)
-    if (u.mirrored == A.mirrored && norm(u.down_px - A.down_px) < 1e-9) return u.read;
-  NumberSite::Upright u{A.down_px, A.mirrored, {}};
-  for (const cv::Rect& b : *site.boxes) {
-    const int side = std::max(b.width, b.height);
-    std::vector<NumberReading> r;
-    if (auto n = reader.read_number(upright_patch(site.img, A, box_center(b), side, side), ink)) r.push_back(*n);
-    u.read.push_back(std::move(r));
+                                                                  const ChartDetection::Arrangement& A,
+                                                                  const std::vector<bool>& wanted) {
+  const std::vector<cv::Rect>& boxes = *site.boxes;
+  auto u = std::find_if(site.upright.begin(), site.upright.end(), [&](const NumberSite::Upright& t) {
+    return t.mirrored == A.mirrored && norm(t.down_px - A.down_px) < 1e-9;
+  });
+  if (u == site.upright.end()) {
+    site.upright.push_back({A.down_px, A.mirrored, std::vector<std::vector<NumberReading>>(boxes.size()),
+                            std::vector<bool>(boxes.size(), false)});
+    u = std::prev(site.upright.end());
   }
-  site.upright.push_back(std::move(u));
-  return site.upright.back().read;
+  for (size_t i = 0; i < boxes.size(); ++i) {
+    if (!wanted[i] || u->done[i]) continue;
+    const cv::Rect& b = boxes[i];
+    const int side = std::max(b.width, b.height);
+    if (auto n = reader.read_number(upright_patch(site.img, A, box_center(b), side, side), ink))
+      u->read[i].push_back(*n);
+    u->done[i] = true;
+  }
+  return u->read;
 }
 
 // The numbers as they read in orientation `o`.
@@ -337,7 +347,29 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
   std::vector<std::vector<NumberReading>> any_turn;
   if (!phase) any_turn = read_boxes(*reader, img, boxes, ink);
-  const auto& read = phase ? read_boxes_upright(*reader, site, ink, D.arrangement) : any_turn;
+  if (phase) {
+    // With the phase known only a group number fixes k (choose_with_phase),
+    // and one stands only by an element of index 0, 1 or 6 modulo 12
+    // (support): those boxes are read first, and the others only where one
+    // of them reads a group number that fits. (Each way of an ambiguous
+    // arrangement reads every box otherwise: dev_02's three ways read 51
+    // numbers, nearly all to find that a wrong way fixes nothing.)
+    std::vector<bool> by_group_place(boxes.size());
+    for (size_t i = 0; i < boxes.size(); ++i) {
+      const ChartElement* nearest = nearest_element(D, beside, box_center(boxes[i])).first;
+      const int n12 = mod12(nearest->relative_index + *phase);
+      by_group_place[i] = n12 == 0 || n12 == 1 || n12 == 6;
+    }
+    const auto& first = read_boxes_upright(*reader, site, ink, D.arrangement, by_group_place);
+    const std::map<int, Support> votes = support(D, beside, labels_in(boxes, first, {}), phase);
+    const bool group_fits = std::any_of(votes.begin(), votes.end(), [&](const auto& kv) {
+      return mod12(kv.first - *phase) == 0 && kv.second.group >= 1;
+    });
+    if (group_fits) read_boxes_upright(*reader, site, ink, D.arrangement, std::vector<bool>(boxes.size(), true));
+  }
+  const auto& read =
+      phase ? read_boxes_upright(*reader, site, ink, D.arrangement, std::vector<bool>(boxes.size(), false))
+            : any_turn;
   // The orientation and k together: in the wrong orientation the numbers
   // (a 6 read as 9, a 2 as 5) do not fit the elements' order.
   std::vector<std::pair<Choice, std::map<int, Support>>> by_o;
