@@ -229,6 +229,13 @@ std::vector<Label> labels_in(const std::vector<cv::Rect>& boxes, const std::vect
 // a group number, that "1" made a copy of dev_03 shifted by (3, 5) px
 // group -2, six groups off, on its own.
 constexpr double kMaxElementLabelPeriods = 3.0;
+// With the arrangement known, a group number stands only by a column's
+// top (indices 1 and 6 modulo 12) or by the even group's element 1 (0).
+bool group_number_place(int n) {
+  const int n12 = mod12(n);
+  return n12 == 0 || n12 == 1 || n12 == 6;
+}
+
 struct Support {
   int element = 0, group = 0;
   int total() const { return element + group; }
@@ -244,11 +251,8 @@ std::map<int, Support> support(const ChartDetection& D, const std::vector<ChartE
     if (l.char_height_px < kMinLabelCharPx) continue;
     const bool as_element =
         l.value >= 1 && l.value <= 6 && size > kMinLabelPeriods && size < kMaxElementLabelPeriods && best < 5;
-    // With the arrangement known, a group number stands only by a column's
-    // top (indices 1 and 6 modulo 12) or by the even group's element 1.
-    const int nearest_n12 = phase ? mod12(nearest->relative_index + *phase) : 0;
     const bool as_group = size > kMinGroupLabelPeriods && size < 3.5 &&
-                          (!phase || nearest_n12 == 0 || nearest_n12 == 1 || nearest_n12 == 6);
+                          (!phase || group_number_place(nearest->relative_index + *phase));
     for (int k = kMinIndex; k <= kMaxIndex; ++k) {
       const int n = nearest->relative_index + k;
       const bool element_fits = as_element && n - 6 * floor_div6(n) == l.value - 1;
@@ -352,14 +356,12 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
     // and one stands only by an element of index 0, 1 or 6 modulo 12
     // (support): those boxes are read first, and the others only where one
     // of them reads a group number that fits. (Each way of an ambiguous
-    // arrangement reads every box otherwise: dev_02's three ways read 51
-    // numbers, nearly all to find that a wrong way fixes nothing.)
+    // arrangement read every box before: dev_02's three ways took 51 OCR
+    // passes, nearly all to find that a wrong way fixes nothing; now 22.)
     std::vector<bool> by_group_place(boxes.size());
-    for (size_t i = 0; i < boxes.size(); ++i) {
-      const ChartElement* nearest = nearest_element(D, beside, box_center(boxes[i])).first;
-      const int n12 = mod12(nearest->relative_index + *phase);
-      by_group_place[i] = n12 == 0 || n12 == 1 || n12 == 6;
-    }
+    for (size_t i = 0; i < boxes.size(); ++i)
+      by_group_place[i] = group_number_place(nearest_element(D, beside, box_center(boxes[i])).first->relative_index +
+                                             *phase);
     const auto& first = read_boxes_upright(*reader, site, ink, D.arrangement, by_group_place);
     const std::map<int, Support> votes = support(D, beside, labels_in(boxes, first, {}), phase);
     const bool group_fits = std::any_of(votes.begin(), votes.end(), [&](const auto& kv) {
