@@ -130,6 +130,7 @@ void recognise_arrangement(ChartDetection& D, const ScaleField& field,
   const auto as_arrangement = [&](const Hyp& h) {
     ChartDetection::Arrangement way = A;
     way.recognised = true;
+    way.candidate_phases.clear();  // a way is one of them
     way.phase = h.phase;
     way.mirrored = h.mirrored;
     way.generated_style = h.generated;

@@ -169,10 +169,16 @@ TEST_CASE("arrangement: the ways it fits when the elements found fit it alike in
       REQUIRE(truth != ways.end());
       CHECK(dot(truth->down_px, image_down(rot)) > 0.99);
       CHECK(truth->steps_matched == truth->steps_checked);
-      for (const ChartDetection::Arrangement& w : ways) {
+      // Each way's phase is a candidate of the unrecognised arrangement
+      // (predict_column_ends), and a way holds none of its own.
+      REQUIRE(b.D.arrangement.candidate_phases.size() == ways.size());
+      for (size_t i = 0; i < ways.size(); ++i) {
+        const ChartDetection::Arrangement& w = ways[i];
         CHECK(w.recognised);
         CHECK(w.steps_matched <= ways.front().steps_matched);
         CHECK(ways.front().steps_matched - w.steps_matched < 3);
+        CHECK(b.D.arrangement.candidate_phases[i] == w.phase);
+        CHECK(w.candidate_phases.empty());
       }
     }
   SUBCASE("a recognised or refused arrangement offers none") {
