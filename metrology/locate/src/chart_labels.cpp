@@ -350,6 +350,7 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
   const std::vector<cv::Rect>& boxes = *site.boxes;
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
   std::vector<std::vector<NumberReading>> any_turn;
+  const std::vector<std::vector<NumberReading>>* read = &any_turn;
   if (!phase) any_turn = read_boxes(*reader, img, boxes, ink);
   if (phase) {
     // With the phase known only a group number fixes k (choose_with_phase),
@@ -362,22 +363,20 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
     for (size_t i = 0; i < boxes.size(); ++i)
       by_group_place[i] = group_number_place(nearest_element(D, beside, box_center(boxes[i])).first->relative_index +
                                              *phase);
-    const auto& first = read_boxes_upright(*reader, site, ink, D.arrangement, by_group_place);
-    const std::map<int, Support> votes = support(D, beside, labels_in(boxes, first, {}), phase);
+    read = &read_boxes_upright(*reader, site, ink, D.arrangement, by_group_place);
+    const std::map<int, Support> votes = support(D, beside, labels_in(boxes, *read, {}), phase);
     const bool group_fits = std::any_of(votes.begin(), votes.end(), [&](const auto& kv) {
       return mod12(kv.first - *phase) == 0 && kv.second.group >= 1;
     });
-    if (group_fits) read_boxes_upright(*reader, site, ink, D.arrangement, std::vector<bool>(boxes.size(), true));
+    if (group_fits)
+      read = &read_boxes_upright(*reader, site, ink, D.arrangement, std::vector<bool>(boxes.size(), true));
   }
-  const auto& read =
-      phase ? read_boxes_upright(*reader, site, ink, D.arrangement, std::vector<bool>(boxes.size(), false))
-            : any_turn;
   // The orientation and k together: in the wrong orientation the numbers
   // (a 6 read as 9, a 2 as 5) do not fit the elements' order.
   std::vector<std::pair<Choice, std::map<int, Support>>> by_o;
   for (const LabelOrientation& o : all_label_orientations()) {
     if (phase && !(o == LabelOrientation{})) continue;  // read upright already
-    const std::vector<Label> labels = labels_in(boxes, read, o);
+    const std::vector<Label> labels = labels_in(boxes, *read, o);
     Choice c;
     c.o = o;
     c.labels_read = static_cast<int>(labels.size());
@@ -388,7 +387,7 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
       phase ? choose_with_phase(by_o, *phase) : choose_free(by_o, best_n, second);
   if (!best || best->s.total() < min_readings) {
     int credible = 0;
-    for (const auto& r : read) credible += !r.empty();
+    for (const auto& r : *read) credible += !r.empty();
     note += credible == 0 ? fmt::format("no printed number read ({} candidate boxes)", boxes.size())
            : best        ? fmt::format("{} printed number(s) read, of which {} fit the arrangement, fewer than the {} "
                                        "needed here",
