@@ -62,7 +62,8 @@ void recognise_arrangement(ChartDetection& D, const ScaleField& field,
   auto& A = D.arrangement;
   const std::vector<ChartElement>& E = D.elements;
   if (E.size() < 2) {
-    A.note = "arrangement not recognised: fewer than two elements with both triplets found on their own (it is read from whole elements)";
+    A.note = "arrangement not recognised: fewer than two elements with both triplets found on their own "
+             "(it is read from whole elements)";
     return;
   }
   // The chart's y axis: across the H triplets' bars (one sign for all).

@@ -351,8 +351,9 @@ bool anchor_at_scale(ChartDetection& D, const std::vector<ChartElement>& kept,
   const Ink ink = D.light_bars ? Ink::light : Ink::dark;
   std::vector<std::vector<NumberReading>> any_turn;
   const std::vector<std::vector<NumberReading>>* read = &any_turn;
-  if (!phase) any_turn = read_boxes(*reader, img, boxes, ink);
-  if (phase) {
+  if (!phase) {
+    any_turn = read_boxes(*reader, img, boxes, ink);
+  } else {
     // With the phase known only a group number fixes k (choose_with_phase),
     // and one stands only by an element of index 0, 1 or 6 modulo 12
     // (support): those boxes are read first, and the others only where one
