@@ -85,21 +85,21 @@ std::optional<LevelStep> plateau_level_step(const ProfileData& d, double bar_wid
 
 namespace {
 
-// Whether every clipped bin of `d` is clipped at black, and on the dark
-// side of the ideal (ideal 1: the ink, or a negative chart's chrome, the
-// ideal being complemented there): the dark side reaches zero, and a fit
-// that takes those bins as bounds (ProfileData::bound) still sees the
-// light level it scales by. A bin clipped at saturation, or at black on
-// the light side, leaves that level unknown.
+// Whether every bin of `d` that clipping left a bound is clipped at black,
+// and on the dark side of the ideal (ideal 1: the ink, or a negative
+// chart's chrome, the ideal being complemented there): the dark side
+// reaches zero, and a fit that takes those bins as bounds
+// (ProfileData::bound) still sees the light level it scales by. A bin
+// clipped at saturation, or a bound at black on the light side, leaves
+// that level unknown. (Most bins clipped at black are no bounds: their
+// unclipped pixels fix their level, profiles/censored_level.h.)
 bool clipped_at_black_only(const ProfileData& d) {
-  bool any = false;
   for (int b = d.fit_begin; b < d.fit_end; ++b) {
     const int bound = d.bound_at(b);
     if (bound == 0) continue;
     if (bound > 0 || d.ideal_at(d.bin_center_mm(b)) < 0.5) return false;
-    any = true;
   }
-  return any;
+  return true;
 }
 
 // One coarse pattern's step: fitted with free contrast, else read off its
@@ -149,7 +149,8 @@ std::optional<LevelStep> pattern_level_step(const SampledProfile& p, double px_p
 //
 // A pattern with more than 2 % of its pixels clipped is left out while
 // any other gives a step. Only where none does are those clipped at black
-// alone used, their clipped bins fitted as bounds: dark bars that reach
+// alone used, their clipped bins read past the clipping or fitted as
+// bounds (profiles/censored_level.h): dark bars that reach
 // zero, or a resampling's or a sharpening's undershoot at their edges
 // pushing them there (dev_11 resized by 0.8 or 1.25 with a Lanczos
 // filter). Clipped at saturation, the ground itself is unknown. A single
@@ -227,8 +228,9 @@ bool chart_level_steps(const ChartDetection& D, const std::vector<PatternRef>& r
   ref.usable = true;
   if (note && clipped_steps > 0)
     *note = fmt::format("the level step was fitted on coarse patterns with more than 2 % of their pixels clipped at "
-                        "black ({} of the {} in full view; none unclipped gave one), their clipped bins taken as "
-                        "bounds: lift black or export without sharpening for a step measured throughout",
+                        "black ({} of the {} in full view; none unclipped gave one), their clipped bins read past "
+                        "the clipping or taken as bounds: lift black or export without sharpening for a step measured "
+                        "throughout",
                         clipped_steps, candidates);
   if (note && !from_plateaus.empty()) {
     std::string which;

@@ -96,14 +96,23 @@ TEST_CASE("chart level step: no plateaus, no step") {
 
 TEST_CASE("chart level step: coarse patterns that all clip are refused, and the problem says so") {
   CoarsePatterns c = coarse_patterns(2, -1, 0.5, [](int) { return three_bars(-0.9, 1.0, 0.1, 0.002, 1); });
-  for (auto& p : c.profiles) p.front().pixels_clipped = 300;  // dark bars pushed to 0
+  // The ground clipped at saturation: bins that stay bounds (a bin clipped
+  // at black alone is read past the clipping where it can be, and a
+  // pattern left with no bound then counts as measured).
+  for (auto& p : c.profiles) {
+    ProfileData& d = p.front().data;
+    d.bound.assign(d.bin_count, 0);
+    for (int b = 0; b < d.bin_count; ++b)
+      if (d.value[b] >= 0.99) d.bound[b] = 1;
+    p.front().pixels_clipped = 300;
+  }
   ReferenceResult ref;
   std::string note;
   CHECK_FALSE(chart::chart_level_steps(c.D, c.refs, c.jobs, c.profiles, MeasureOptions{}, ref, &note));
   CHECK(note.find("2 of the 2 coarse pattern(s)") != std::string::npos);
   CHECK(note.find("clipped") != std::string::npos);
   // Unclipped, the same patterns give the step.
-  for (auto& p : c.profiles) p.front().pixels_clipped = 0;
+  for (auto& p : c.profiles) p.front().pixels_clipped = 0, p.front().data.bound.clear();
   note.clear();
   CHECK(chart::chart_level_steps(c.D, c.refs, c.jobs, c.profiles, MeasureOptions{}, ref, &note));
   CHECK(ref.horizontal_bars.contrast == doctest::Approx(-0.9).epsilon(0.05));

@@ -8,6 +8,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "censored_level.h"
+
 namespace tactres {
 
 void ProfileSamplingOptions::validate() const {
@@ -374,6 +376,31 @@ void refer_to_mid_strip(ProfileData& d, const BinSums& sums, const std::vector<S
     for (int b : filled) d.value[b] /= 1.0 + g_per_mm * sums[b].sum_v / d.count[b];
 }
 
+// Bins clipped at black only (clip bit 1) whose unclipped pixels still
+// fix their level (censored_level.h): their value becomes that level and
+// their clip bit is cleared, so that they are measurements, not bounds.
+// Returns each such bin's standard error (0 elsewhere). A negative chart's
+// dark ground at a few codes above black, under noise, clips in every bin
+// (dev_02 with noise of 2 % of full scale: a quarter of its coarse
+// patterns' pixels at 0): as bounds, no bin held the ground's level, and
+// no level step could be measured.
+std::vector<double> levels_past_black_clipping(ProfileData& d, const std::vector<Sample>& samples,
+                                               std::vector<unsigned char>& clip_bits) {
+  std::vector<double> sigma(d.bin_count, 0);
+  std::vector<std::vector<double>> values(d.bin_count);
+  for (const Sample& q : samples)
+    if (clip_bits[q.bin] == 1) values[q.bin].push_back(q.value);
+  for (int b = 0; b < d.bin_count; ++b) {
+    if (clip_bits[b] != 1) continue;
+    const std::optional<profiles_detail::CensoredLevel> level = profiles_detail::level_clipped_at_black(values[b]);
+    if (!level) continue;
+    d.value[b] = level->value;
+    sigma[b] = level->sigma;
+    clip_bits[b] = 0;
+  }
+  return sigma;
+}
+
 // Noise model var(level) = a + b * level (read noise plus shot noise, the
 // photon-transfer relation of EMVA 1288), fitted to the within-bin
 // variances of the flattest half of the bins (at an edge, a bin's width
@@ -480,17 +507,23 @@ SampledProfile sample_strip(const cv::Mat& lum, const PlaneToImage& plane, const
   std::vector<int> filled;  // bins holding samples (aligned pixels leave gaps)
   for (int b = 0; b < d.bin_count; ++b)
     if (d.count[b] > 0) filled.push_back(b);
+  // A clipped bin's spread is not its noise: only bins with no clipped
+  // pixel enter the noise model.
+  std::vector<int> measured;
+  for (int b : filled)
+    if (clip_bits[b] == 0) measured.push_back(b);
+  const std::vector<double> censored_sigma =
+      out.pixels_clipped > 0 ? levels_past_black_clipping(d, samples, clip_bits) : std::vector<double>();
   refer_to_mid_strip(d, sums, samples, filled, V);
   if (out.pixels_clipped > 0) {
     static constexpr signed char kBoundOf[4] = {0, -1, 1, 2};
     d.bound.resize(d.bin_count);
     for (int b = 0; b < d.bin_count; ++b) d.bound[b] = kBoundOf[clip_bits[b]];
   }
-  // A clipped bin's spread is not its noise.
-  std::vector<int> measured;
-  for (int b : filled)
-    if (d.bound_at(b) == 0) measured.push_back(b);
   fit_noise_models(d, sums, flattest_first(d, measured), mean_abs_level, out);
+  // A censored bin's error is its own, or the noise model's where larger.
+  for (int b = 0; b < static_cast<int>(censored_sigma.size()); ++b)
+    d.sigma[b] = std::max(d.sigma[b], censored_sigma[b]);
   d.ideal = ideal_boxes(artwork, s, 0.25 * d.bin_mm, warp);
   return out;
 }
