@@ -29,7 +29,7 @@ struct Tobit {
     const double t = -delta;
     const double Phi = 0.5 * std::erfc(-t / std::sqrt(2.0));
     const double phi = std::exp(-0.5 * t * t) / std::sqrt(2 * M_PI);
-    lambda = Phi > 1e-300 ? phi / Phi : -t;  // its asymptote far below black
+    lambda = Phi > 1e-300 ? phi / Phi : -t;  // its asymptote for a level far above black
     curvature = lambda * (t + lambda);
   }
   // Gradient g and the negative Hessian (the observed information) J, in
